@@ -1,0 +1,627 @@
+//! Parameters of a scenario: the single source of truth for `params.yaml`.
+//!
+//! Python reads YAML and hands the dict over; serde rejects unknown keys and wrong types, and
+//! [`Params::validate`] checks ranges and cross-field rules. Every default is the documented
+//! scenario (SPEC.md §1–§5); `params.yaml` at the repository root spells the same values out and
+//! a test keeps the two equal. Derived quantities (the capture count when left `null`, the
+//! Δ-widening table's row) are computed, not stored.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::math::PI;
+
+/// The whole scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    pub world: WorldParams,
+    pub agents: AgentsParams,
+    pub obstacles: ObstacleParams,
+    pub capture: CaptureParams,
+    pub policies: PolicyParams,
+    pub seed000: Seed000Params,
+    pub avoidance: AvoidanceParams,
+    pub escape: EscapeParams,
+}
+
+/// Arena, clock and agent counts (SPEC §1.1–§1.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WorldParams {
+    /// `[x_min, y_min, x_max, y_max]` in metres.
+    pub border: [f64; 4],
+    /// Sampling time Ts in seconds.
+    pub ts: f64,
+    /// Episode limit TOTSTEP in steps.
+    pub max_steps: u32,
+    /// Number of wolves N ≥ 1.
+    pub wolves: usize,
+    /// Number of targets M ≥ 1.
+    pub targets: usize,
+    /// INIT_D: clearance between spawned obstacles and agents / other obstacles (m).
+    pub init_clearance: f64,
+    /// Halve infeasible wolf speeds / freeze infeasible targets (SPEC §1.5 step 3).
+    pub feasibility_filter: bool,
+    /// With several targets, wolves re-pick their nearest target every this many steps.
+    pub retarget_period: u32,
+    /// Rejection-sampling budget: tries per agent or obstacle before a layout restart.
+    pub spawn_attempts: u32,
+    /// Whole-layout restarts before spawning gives up with an error.
+    pub spawn_restarts: u32,
+}
+
+impl Default for WorldParams {
+    fn default() -> Self {
+        Self {
+            border: [-10.0, -10.0, 10.0, 10.0],
+            ts: 0.1,
+            max_steps: 300,
+            wolves: 5,
+            targets: 1,
+            init_clearance: 1.5,
+            feasibility_filter: true,
+            retarget_period: 5,
+            spawn_attempts: 1000,
+            spawn_restarts: 20,
+        }
+    }
+}
+
+/// Kinematic limits and sensing of one side.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SideParams {
+    /// Maximum linear speed (m/s); no reverse motion.
+    pub v_max: f64,
+    /// Maximum |ω| (rad/s).
+    pub omega_max: f64,
+    /// Mass for the energy ½ m v² per step (kg).
+    pub mass: f64,
+    /// Sensing radius r_w (m): a wolf senses a target, a target senses wolves, within it.
+    pub sense_radius: f64,
+}
+
+impl Default for SideParams {
+    fn default() -> Self {
+        Self { v_max: 1.5, omega_max: 7.0, mass: 1.0, sense_radius: 3.0 }
+    }
+}
+
+/// Target side: as [`SideParams`] plus the fatigue rule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TargetSideParams {
+    pub v_max: f64,
+    pub omega_max: f64,
+    pub mass: f64,
+    pub sense_radius: f64,
+    /// Fatigue as a world rule (SPEC §5): from its first sighting on, a target's speed is
+    /// capped by the fatigue curve whoever controls it.
+    pub fatigue: bool,
+}
+
+impl Default for TargetSideParams {
+    fn default() -> Self {
+        let s = SideParams::default();
+        Self {
+            v_max: s.v_max,
+            omega_max: s.omega_max,
+            mass: s.mass,
+            sense_radius: s.sense_radius,
+            fatigue: true,
+        }
+    }
+}
+
+impl TargetSideParams {
+    pub fn side(&self) -> SideParams {
+        SideParams {
+            v_max: self.v_max,
+            omega_max: self.omega_max,
+            mass: self.mass,
+            sense_radius: self.sense_radius,
+        }
+    }
+}
+
+/// Body triangle, shared by wolves and targets (SPEC §1.2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BodyParams {
+    pub base: f64,
+    pub height: f64,
+}
+
+impl Default for BodyParams {
+    fn default() -> Self {
+        Self { base: 0.2, height: 0.2 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct AgentsParams {
+    pub wolf: SideParams,
+    pub target: TargetSideParams,
+    pub body: BodyParams,
+}
+
+/// Obstacle counts and their random shapes and motion (SPEC §1.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObstacleParams {
+    pub static_circles: usize,
+    pub moving_circles: usize,
+    pub static_polygons: usize,
+    pub moving_polygons: usize,
+    /// Circle radius ~ U(lo, hi).
+    pub circle_radius: [f64; 2],
+    /// Polygon size R ~ U(lo, hi).
+    pub polygon_size: [f64; 2],
+    /// Vertex count ~ uniform integer in [lo, hi] (lo ≥ 4: one per quadrant).
+    pub polygon_vertices: [u32; 2],
+    /// Vertex radius = sqrt(U(inner, 1)) · R.
+    pub polygon_inner: f64,
+    /// Every polygon rotates by U(−rotation_max, rotation_max) rad each step.
+    pub rotation_max: f64,
+    /// Moving obstacles translate by v Ts with v ~ N(0, speed_std²) per axis each step.
+    pub speed_std: f64,
+}
+
+impl Default for ObstacleParams {
+    fn default() -> Self {
+        Self {
+            static_circles: 1,
+            moving_circles: 1,
+            static_polygons: 5,
+            moving_polygons: 5,
+            circle_radius: [0.25, 1.25],
+            polygon_size: [0.5, 1.25],
+            polygon_vertices: [7, 15],
+            polygon_inner: 0.07,
+            rotation_max: PI / 16.0,
+            speed_std: 0.5,
+        }
+    }
+}
+
+impl ObstacleParams {
+    pub fn total(&self) -> usize {
+        self.static_circles + self.moving_circles + self.static_polygons + self.moving_polygons
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CaptureRule {
+    /// At least `count` wolves within `distance`.
+    Count,
+    /// As `count`, and the target inside the convex hull of those wolves.
+    Encircle,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CaptureParams {
+    /// R_ATTACKED (m).
+    pub distance: f64,
+    /// Wolves needed within `distance`; `null` means ⌈0.8 N⌉ (4 for 5 wolves).
+    pub count: Option<usize>,
+    pub rule: CaptureRule,
+}
+
+impl Default for CaptureParams {
+    fn default() -> Self {
+        Self { distance: 0.8, count: None, rule: CaptureRule::Count }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WolfPolicy {
+    Seed000,
+    Bvc,
+    Formation,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TargetPolicy {
+    Escape,
+    Random,
+    Still,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PolicyParams {
+    pub wolves: WolfPolicy,
+    pub targets: TargetPolicy,
+}
+
+impl Default for PolicyParams {
+    fn default() -> Self {
+        Self { wolves: WolfPolicy::Seed000, targets: TargetPolicy::Escape }
+    }
+}
+
+/// The seed000 hunting law (SPEC §3): ν = α ν₁ + β ν₂.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Seed000Params {
+    pub alpha: f64,
+    /// ς: gain of following the nearest sensing partner.
+    pub varsigma: f64,
+    pub tau1: f64,
+    pub tau2: f64,
+    pub tau3: f64,
+    pub beta: f64,
+    /// r_h: hunting radius (m).
+    pub radius: f64,
+    /// Speed of the remembered attraction direction when nothing is sensed.
+    pub lost_speed: f64,
+    /// A partner wolf closer than this (centre distance) is an avoidance item.
+    pub partner_range: f64,
+    /// Δ of a partner item (rad).
+    pub partner_half_angle: f64,
+    /// D_DANGER_W: a partner this close and ahead triggers close-partner steering.
+    pub partner_danger: f64,
+}
+
+impl Default for Seed000Params {
+    fn default() -> Self {
+        Self {
+            alpha: 5.050359027046031,
+            varsigma: 0.3869405500381927,
+            tau1: 2.114010945835207,
+            tau2: -0.6788510831700431,
+            tau3: 1.0300341638172719,
+            beta: 2.32753414,
+            radius: 0.65,
+            lost_speed: 1.5,
+            partner_range: 1.0,
+            partner_half_angle: PI / 12.0,
+            partner_danger: 0.5,
+        }
+    }
+}
+
+/// κ widening factors of one row of SPEC §4's table.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KappaRow {
+    pub wall: f64,
+    pub circle: f64,
+    pub static_polygon: f64,
+    pub moving_polygon: f64,
+}
+
+/// Heading-based obstacle avoidance (SPEC §4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AvoidanceParams {
+    /// r_a: obstacles are items within this surface distance (m).
+    pub obstacle_range: f64,
+    /// Walls are items within this distance (m).
+    pub wall_range: f64,
+    /// D_DANGER: a merged interval closer than this (static circles excepted) is an emergency.
+    pub danger_distance: f64,
+    /// Steps an emergency lasts, counting the step that triggered it.
+    pub danger_steps: u32,
+    /// Normal mode pushes θ_d this far (rad) past the nearer interval edge.
+    pub edge_margin: f64,
+    /// Early exit: a wolf within this distance of its target skips avoidance when enough
+    /// wolves (`capture.count`) are that close, or when its only item is a wall.
+    pub early_exit_distance: f64,
+    pub wolf_single: KappaRow,
+    pub wolf_multi: KappaRow,
+    pub target_single: KappaRow,
+    pub target_multi: KappaRow,
+}
+
+impl Default for AvoidanceParams {
+    fn default() -> Self {
+        Self {
+            obstacle_range: 1.6479672158640435,
+            wall_range: 1.4,
+            danger_distance: 0.28489136293795562,
+            danger_steps: 3,
+            edge_margin: 0.01,
+            early_exit_distance: 0.8,
+            wolf_single: KappaRow { wall: 1.6, circle: 2.4, static_polygon: 2.4, moving_polygon: 3.2 },
+            wolf_multi: KappaRow { wall: 1.3, circle: 1.8, static_polygon: 1.8, moving_polygon: 2.2 },
+            target_single: KappaRow { wall: 1.2, circle: 2.0, static_polygon: 2.0, moving_polygon: 2.8 },
+            target_multi: KappaRow { wall: 1.2, circle: 1.6, static_polygon: 1.6, moving_polygon: 2.0 },
+        }
+    }
+}
+
+/// The scripted `escape` target (SPEC §5) and the fatigue curve
+/// `v(t) = base · (2 − 1/(1 + exp(slope · (delay + t_seen − t))))`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EscapeParams {
+    /// Wander speed ~ U(0, wander_speed) before any sighting (and forever for `random`).
+    pub wander_speed: f64,
+    /// Wander turn ~ U(−wander_turn, wander_turn) rad per step.
+    pub wander_turn: f64,
+    pub fatigue_base: f64,
+    pub fatigue_slope: f64,
+    pub fatigue_delay: f64,
+}
+
+impl Default for EscapeParams {
+    fn default() -> Self {
+        Self {
+            wander_speed: 1.5,
+            wander_turn: PI / 6.0,
+            fatigue_base: 0.9,
+            fatigue_slope: 0.25,
+            fatigue_delay: 100.0,
+        }
+    }
+}
+
+impl EscapeParams {
+    /// The fatigue curve at step `t` for a target first seen at `t_seen` (before the v_max cap).
+    pub fn fatigue_speed(&self, t_seen: u32, t: u32) -> f64 {
+        let x = self.fatigue_slope * (self.fatigue_delay + t_seen as f64 - t as f64);
+        self.fatigue_base * (2.0 - 1.0 / (1.0 + x.exp()))
+    }
+}
+
+fn bad(key: &str, why: impl std::fmt::Display) -> Error {
+    Error::Params(format!("{key}: {why}"))
+}
+
+fn positive(key: &str, x: f64) -> Result<()> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(bad(key, format!("must be a finite number > 0, got {x}")))
+    }
+}
+
+fn non_negative(key: &str, x: f64) -> Result<()> {
+    if x.is_finite() && x >= 0.0 {
+        Ok(())
+    } else {
+        Err(bad(key, format!("must be a finite number >= 0, got {x}")))
+    }
+}
+
+fn finite(key: &str, x: f64) -> Result<()> {
+    if x.is_finite() {
+        Ok(())
+    } else {
+        Err(bad(key, format!("must be finite, got {x}")))
+    }
+}
+
+fn range(key: &str, r: [f64; 2]) -> Result<()> {
+    positive(key, r[0])?;
+    positive(key, r[1])?;
+    if r[0] > r[1] {
+        return Err(bad(key, format!("lower bound {} exceeds upper bound {}", r[0], r[1])));
+    }
+    Ok(())
+}
+
+impl Params {
+    /// Parses a value tree (from YAML/JSON via Python, or serde_json in tests) and validates it.
+    /// Errors name the offending key path, e.g. `world.wolvs: unknown field ...`.
+    pub fn from_deserializer<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Self> {
+        let p: Params = serde_path_to_error::deserialize(d).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner().to_string();
+            if path.is_empty() || path == "." {
+                Error::Params(inner)
+            } else {
+                Error::Params(format!("{path}: {inner}"))
+            }
+        })?;
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Wolves needed for a capture: `capture.count`, or ⌈0.8 N⌉ when left `null`.
+    pub fn capture_count(&self) -> usize {
+        self.capture.count.unwrap_or_else(|| ((0.8 * self.world.wolves as f64).ceil() as usize).max(1))
+    }
+
+    /// The derived copy that tools show: `capture.count` filled in.
+    pub fn resolved(&self) -> Params {
+        let mut p = self.clone();
+        p.capture.count = Some(self.capture_count());
+        p
+    }
+
+    /// Range and cross-field checks. Each error names its key.
+    pub fn validate(&self) -> Result<()> {
+        let w = &self.world;
+        for (i, b) in w.border.iter().enumerate() {
+            finite(&format!("world.border[{i}]"), *b)?;
+        }
+        if w.border[0] >= w.border[2] {
+            return Err(bad("world.border", format!("x_min {} must be < x_max {}", w.border[0], w.border[2])));
+        }
+        if w.border[1] >= w.border[3] {
+            return Err(bad("world.border", format!("y_min {} must be < y_max {}", w.border[1], w.border[3])));
+        }
+        positive("world.ts", w.ts)?;
+        if w.max_steps < 1 {
+            return Err(bad("world.max_steps", "must be >= 1"));
+        }
+        if w.wolves < 1 {
+            return Err(bad("world.wolves", "must be >= 1"));
+        }
+        if w.targets < 1 {
+            return Err(bad("world.targets", "must be >= 1"));
+        }
+        // Bounded so that per-step (N+M)² work and logs stay sane; far beyond the field's use.
+        if w.wolves + w.targets > 1024 {
+            return Err(bad("world.wolves", "wolves + targets must be <= 1024"));
+        }
+        non_negative("world.init_clearance", w.init_clearance)?;
+        if w.retarget_period < 1 {
+            return Err(bad("world.retarget_period", "must be >= 1"));
+        }
+        if w.spawn_attempts < 1 {
+            return Err(bad("world.spawn_attempts", "must be >= 1"));
+        }
+        if w.spawn_restarts < 1 {
+            return Err(bad("world.spawn_restarts", "must be >= 1"));
+        }
+
+        for (side, s) in [("agents.wolf", self.agents.wolf.clone()), ("agents.target", self.agents.target.side())] {
+            positive(&format!("{side}.v_max"), s.v_max)?;
+            positive(&format!("{side}.omega_max"), s.omega_max)?;
+            positive(&format!("{side}.mass"), s.mass)?;
+            positive(&format!("{side}.sense_radius"), s.sense_radius)?;
+        }
+        positive("agents.body.base", self.agents.body.base)?;
+        positive("agents.body.height", self.agents.body.height)?;
+
+        let o = &self.obstacles;
+        range("obstacles.circle_radius", o.circle_radius)?;
+        range("obstacles.polygon_size", o.polygon_size)?;
+        let [lo, hi] = o.polygon_vertices;
+        if lo < 4 || lo > hi || hi > 256 {
+            return Err(bad("obstacles.polygon_vertices", format!("need 4 <= lo <= hi <= 256, got [{lo}, {hi}]")));
+        }
+        if !(o.polygon_inner > 0.0 && o.polygon_inner <= 1.0) {
+            return Err(bad("obstacles.polygon_inner", format!("must be in (0, 1], got {}", o.polygon_inner)));
+        }
+        non_negative("obstacles.rotation_max", o.rotation_max)?;
+        non_negative("obstacles.speed_std", o.speed_std)?;
+        if o.total() > 10_000 {
+            return Err(bad("obstacles", "more than 10000 obstacles"));
+        }
+
+        positive("capture.distance", self.capture.distance)?;
+        if let Some(c) = self.capture.count {
+            if c < 1 {
+                return Err(bad("capture.count", "must be >= 1"));
+            }
+            if c > w.wolves {
+                return Err(bad("capture.count", format!("{c} exceeds world.wolves = {}", w.wolves)));
+            }
+        }
+
+        let s = &self.seed000;
+        for (k, x) in [("alpha", s.alpha), ("varsigma", s.varsigma), ("tau1", s.tau1), ("tau2", s.tau2), ("tau3", s.tau3), ("beta", s.beta)] {
+            finite(&format!("seed000.{k}"), x)?;
+        }
+        positive("seed000.radius", s.radius)?;
+        non_negative("seed000.lost_speed", s.lost_speed)?;
+        non_negative("seed000.partner_range", s.partner_range)?;
+        non_negative("seed000.partner_half_angle", s.partner_half_angle)?;
+        non_negative("seed000.partner_danger", s.partner_danger)?;
+
+        let a = &self.avoidance;
+        positive("avoidance.obstacle_range", a.obstacle_range)?;
+        positive("avoidance.wall_range", a.wall_range)?;
+        non_negative("avoidance.danger_distance", a.danger_distance)?;
+        non_negative("avoidance.edge_margin", a.edge_margin)?;
+        non_negative("avoidance.early_exit_distance", a.early_exit_distance)?;
+        for (k, r) in [("wolf_single", a.wolf_single), ("wolf_multi", a.wolf_multi), ("target_single", a.target_single), ("target_multi", a.target_multi)] {
+            for (f, x) in [("wall", r.wall), ("circle", r.circle), ("static_polygon", r.static_polygon), ("moving_polygon", r.moving_polygon)] {
+                positive(&format!("avoidance.{k}.{f}"), x)?;
+            }
+        }
+
+        let e = &self.escape;
+        non_negative("escape.wander_speed", e.wander_speed)?;
+        non_negative("escape.wander_turn", e.wander_turn)?;
+        positive("escape.fatigue_base", e.fatigue_base)?;
+        finite("escape.fatigue_slope", e.fatigue_slope)?;
+        finite("escape.fatigue_delay", e.fatigue_delay)?;
+
+        if self.policies.wolves != WolfPolicy::Seed000 {
+            let name = match self.policies.wolves {
+                WolfPolicy::Bvc => "bvc",
+                WolfPolicy::Formation => "formation",
+                WolfPolicy::Seed000 => unreachable!(),
+            };
+            return Err(bad(
+                "policies.wolves",
+                format!("the '{name}' law is specified (SPEC.md) but not implemented in this version; use 'seed000'"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(json: &str) -> Result<Params> {
+        let mut de = serde_json::Deserializer::from_str(json);
+        Params::from_deserializer(&mut de)
+    }
+
+    #[test]
+    fn empty_document_is_the_documented_scenario() {
+        let p = parse("{}").unwrap();
+        assert_eq!(p, Params::default());
+        assert_eq!(p.capture_count(), 4);
+        assert_eq!(p.obstacles.total(), 12);
+    }
+
+    #[test]
+    fn unknown_key_is_named_with_its_path() {
+        let e = parse(r#"{"world": {"wolvs": 3}}"#).unwrap_err().to_string();
+        assert!(e.contains("world") && e.contains("wolvs"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_is_named() {
+        let e = parse(r#"{"world": {"wolves": "five"}}"#).unwrap_err().to_string();
+        assert!(e.starts_with("world.wolves"), "{e}");
+    }
+
+    #[test]
+    fn ranges_are_checked() {
+        for (doc, key) in [
+            (r#"{"world": {"ts": 0}}"#, "world.ts"),
+            (r#"{"world": {"ts": -0.1}}"#, "world.ts"),
+            (r#"{"world": {"max_steps": 0}}"#, "world.max_steps"),
+            (r#"{"world": {"wolves": 0}}"#, "world.wolves"),
+            (r#"{"world": {"border": [5, -10, 5, 10]}}"#, "world.border"),
+            (r#"{"capture": {"count": 6}}"#, "capture.count"),
+            (r#"{"agents": {"wolf": {"v_max": -1}}}"#, "agents.wolf.v_max"),
+            (r#"{"obstacles": {"circle_radius": [0, 1]}}"#, "obstacles.circle_radius"),
+            (r#"{"policies": {"wolves": "bvc"}}"#, "policies.wolves"),
+        ] {
+            let e = parse(doc).unwrap_err().to_string();
+            assert!(e.starts_with(key), "{doc}: {e}");
+        }
+    }
+
+    #[test]
+    fn unknown_policy_is_named() {
+        let e = parse(r#"{"policies": {"targets": "flee"}}"#).unwrap_err().to_string();
+        assert!(e.starts_with("policies.targets") && e.contains("flee"), "{e}");
+    }
+
+    #[test]
+    fn capture_count_derives_from_wolves() {
+        let p = parse(r#"{"world": {"wolves": 3}}"#).unwrap();
+        assert_eq!(p.capture_count(), 3);
+        let p = parse(r#"{"world": {"wolves": 10}}"#).unwrap();
+        assert_eq!(p.capture_count(), 8);
+    }
+
+    #[test]
+    fn fatigue_curve_caps_then_falls_to_base() {
+        let e = EscapeParams::default();
+        assert!(e.fatigue_speed(0, 0) > 1.79);
+        // 0.9·(2 − 1/(1+e^{0.25·3})) at t − t_seen = 97: just above 1.5.
+        let v97 = 0.9 * (2.0 - 1.0 / (1.0 + (0.75f64).exp()));
+        assert!((e.fatigue_speed(10, 107) - v97).abs() < 1e-12);
+        assert!(v97 > 1.5 && e.fatigue_speed(0, 98) < 1.5);
+        assert!((e.fatigue_speed(0, 400) - 0.9).abs() < 1e-6);
+    }
+}

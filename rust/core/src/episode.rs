@@ -1,0 +1,107 @@
+//! Whole episodes: run a world to its end, record the logs of SPEC §8, and run many episodes
+//! in parallel with results independent of the thread count (episode k uses seed `seed + k`).
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use crate::config::Params;
+use crate::error::{Error, Result};
+use crate::world::{Layout, Outcome, World};
+
+/// Per-step logs of one episode, flat row-major buffers (T = steps taken).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trajectory {
+    /// [T+1, N, 5]: x, y, θ, v, ω; row 0 is the initial state.
+    pub wolves: Vec<f64>,
+    /// [T+1, M, 5].
+    pub targets: Vec<f64>,
+    /// [T+1, N+M] accumulated energy.
+    pub energy: Vec<f64>,
+    /// [T, N+M, N+M] interaction matrices.
+    pub interaction: Vec<u8>,
+}
+
+impl Trajectory {
+    fn push(&mut self, w: &World) {
+        for a in &w.wolves {
+            self.wolves.extend_from_slice(&[a.pos.x, a.pos.y, a.theta, a.v, a.omega]);
+        }
+        for a in &w.targets {
+            self.targets.extend_from_slice(&[a.pos.x, a.pos.y, a.theta, a.v, a.omega]);
+        }
+        self.energy.extend(w.wolves.iter().chain(&w.targets).map(|a| a.energy));
+    }
+}
+
+/// What one episode came to (SPEC §8).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpisodeResult {
+    pub seed: u64,
+    pub outcome: Outcome,
+    pub steps: u32,
+    /// Step of the last capture, for captured episodes.
+    pub capture_step: Option<u32>,
+    /// Per agent (wolves, then targets), J.
+    pub energy: Vec<f64>,
+    /// Per agent, steps spent overlapping an obstacle or (wolves) a wolf.
+    pub collisions: Vec<u32>,
+    pub wolves: usize,
+    pub targets: usize,
+    pub trajectory: Option<Trajectory>,
+}
+
+/// Runs one scripted episode.
+pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, record: bool) -> Result<EpisodeResult> {
+    let mut world = match layout {
+        Some(l) => World::from_layout(params.clone(), seed, l)?,
+        None => World::new(params.clone(), seed)?,
+    };
+    let (n, m) = (world.n_wolves(), world.n_targets());
+    let mut traj = record.then(|| {
+        let rows = world.params.world.max_steps as usize + 1;
+        let mut t = Trajectory {
+            wolves: Vec::with_capacity(rows * n * 5),
+            targets: Vec::with_capacity(rows * m * 5),
+            energy: Vec::with_capacity(rows * (n + m)),
+            interaction: Vec::with_capacity((rows - 1) * (n + m) * (n + m)),
+        };
+        t.push(&world);
+        t
+    });
+    while !world.is_done() {
+        world.step();
+        if let Some(t) = traj.as_mut() {
+            t.push(&world);
+            t.interaction.extend_from_slice(&world.interaction);
+        }
+    }
+    Ok(EpisodeResult {
+        seed,
+        outcome: world.outcome,
+        steps: world.t,
+        capture_step: world.capture_step(),
+        energy: world.wolves.iter().chain(&world.targets).map(|a| a.energy).collect(),
+        collisions: world.collisions.clone(),
+        wolves: n,
+        targets: m,
+        trajectory: traj,
+    })
+}
+
+/// Runs episodes `first .. first + count` (seeds `seed + k`) on a rayon pool of `threads`
+/// threads (`None`: all cores). Results come back in episode order and do not depend on the
+/// thread count: each episode owns its generator.
+pub fn run_episodes(params: &Params, seed: u64, first: u64, count: u64, layout: Option<&Layout>, record: bool, threads: Option<usize>) -> Result<Vec<EpisodeResult>> {
+    params.validate()?;
+    let params = Arc::new(params.clone());
+    let work = || (first..first + count).into_par_iter().map(|k| run_episode(&params, seed.wrapping_add(k), layout, record)).collect::<Result<Vec<_>>>();
+    match threads {
+        None => work(),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t.max(1))
+            .build()
+            .map_err(|e| Error::Invalid(format!("could not start {t} threads: {e}")))?
+            .install(work),
+    }
+}

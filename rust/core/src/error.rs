@@ -1,0 +1,21 @@
+//! The core's errors: each one line, naming what is wrong, mapped to `ValueError` in Python.
+
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum Error {
+    /// A parameter is missing, of the wrong type, unknown or out of range. Names the key.
+    #[error("{0}")]
+    Params(String),
+    /// An explicit layout is malformed or infeasible.
+    #[error("layout: {0}")]
+    Layout(String),
+    /// Random spawning could not place everything within its bounded number of attempts.
+    #[error("spawn: {0}")]
+    Spawn(String),
+    /// Anything else the caller did wrong (shapes, actions, unimplemented policies).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,156 @@
+//! Queries on simple polygons (the irregular obstacles): containment, closest point, and the
+//! angular extent of the part within a sensing disc.
+
+use parry2d_f64::query::PointQuery;
+use parry2d_f64::shape::Segment;
+
+use super::Extent;
+use crate::math::{angle_of, wrap, wrap_pi, Point2, Vec2, FRAC_PI_2};
+
+/// Even–odd point-in-polygon test (boundary points may go either way; callers that need the
+/// closed set also test the distance to the boundary).
+pub fn polygon_contains(poly: &[Vec2], p: Vec2) -> bool {
+    let mut inside = false;
+    let n = poly.len();
+    let mut j = n - 1;
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[j]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+/// The point of the polygon's boundary closest to `p`, and its distance.
+pub fn polygon_closest_point(poly: &[Vec2], p: Vec2) -> (Vec2, f64) {
+    let q = Point2::from(p);
+    let n = poly.len();
+    let mut best = (poly[0], f64::INFINITY);
+    for i in 0..n {
+        let seg = Segment::new(Point2::from(poly[i]), Point2::from(poly[(i + 1) % n]));
+        let proj = seg.project_local_point(&q, true);
+        let d = (proj.point - q).norm();
+        if d < best.1 {
+            best = (proj.point.coords, d);
+        }
+    }
+    best
+}
+
+/// The part of segment [a, b] inside the closed disc (c, r), if any.
+pub fn segment_disc_clip(a: Vec2, b: Vec2, c: Vec2, r: f64) -> Option<(Vec2, Vec2)> {
+    let d = b - a;
+    let f = a - c;
+    let qa = d.dot(&d);
+    let qb = 2.0 * f.dot(&d);
+    let qc = f.dot(&f) - r * r;
+    if qa == 0.0 {
+        return (qc <= 0.0).then_some((a, a));
+    }
+    let disc = qb * qb - 4.0 * qa * qc;
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let t0 = ((-qb - s) / (2.0 * qa)).max(0.0);
+    let t1 = ((-qb + s) / (2.0 * qa)).min(1.0);
+    (t0 <= t1).then(|| (a + d * t0, a + d * t1))
+}
+
+/// Angular extent of `polygon ∩ disc(p, range)` seen from `p` (SPEC §4 "polygon" item): the two
+/// tangent rays bound the directions in which a ray from p meets the polygon within `range`.
+///
+/// Returns `None` when the polygon is farther than `range`. The directions are measured as
+/// offsets from the direction ψ₀ of the closest boundary point (which is always inside the
+/// set), so the interval never straddles a 0/2π seam. When `p` is inside the polygon (only a
+/// moving obstacle can put it there), the whole forward half-plane towards the polygon's
+/// `center` is reported: ψ = direction to the centre, Δ = π/2, d = 0.
+pub fn polygon_visible_extent(poly: &[Vec2], center: Vec2, p: Vec2, range: f64) -> Option<Extent> {
+    let (closest, dist) = polygon_closest_point(poly, p);
+    if dist >= range {
+        return None;
+    }
+    if polygon_contains(poly, p) {
+        return Some(Extent { psi: angle_of(center - p), delta: FRAC_PI_2, dist: 0.0 });
+    }
+    if dist == 0.0 {
+        // On the boundary: the tangent directions are those of the touching edges.
+        return Some(Extent { psi: angle_of(center - p), delta: FRAC_PI_2, dist: 0.0 });
+    }
+    let psi0 = angle_of(closest - p);
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    let n = poly.len();
+    for i in 0..n {
+        if let Some((a, b)) = segment_disc_clip(poly[i], poly[(i + 1) % n], p, range) {
+            for q in [a, b] {
+                let off = wrap_pi(angle_of(q - p) - psi0);
+                lo = lo.min(off);
+                hi = hi.max(off);
+            }
+        }
+    }
+    Some(Extent { psi: wrap(psi0 + 0.5 * (lo + hi)), delta: 0.5 * (hi - lo), dist })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::PI;
+
+    fn v(x: f64, y: f64) -> Vec2 {
+        Vec2::new(x, y)
+    }
+
+    fn square(c: Vec2, h: f64) -> Vec<Vec2> {
+        vec![c + v(-h, -h), c + v(h, -h), c + v(h, h), c + v(-h, h)]
+    }
+
+    #[test]
+    fn containment_and_distance() {
+        let s = square(v(0.0, 0.0), 1.0);
+        assert!(polygon_contains(&s, v(0.5, 0.5)));
+        assert!(!polygon_contains(&s, v(1.5, 0.5)));
+        let (q, d) = polygon_closest_point(&s, v(3.0, 0.5));
+        assert!((d - 2.0).abs() < 1e-12 && (q - v(1.0, 0.5)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn disc_clip() {
+        let (a, b) = segment_disc_clip(v(-2.0, 0.0), v(2.0, 0.0), v(0.0, 0.0), 1.0).unwrap();
+        assert!((a - v(-1.0, 0.0)).norm() < 1e-12 && (b - v(1.0, 0.0)).norm() < 1e-12);
+        assert!(segment_disc_clip(v(-2.0, 2.0), v(2.0, 2.0), v(0.0, 0.0), 1.0).is_none());
+        let (a, b) = segment_disc_clip(v(0.0, 0.0), v(0.5, 0.0), v(0.0, 0.0), 1.0).unwrap();
+        assert!((a - v(0.0, 0.0)).norm() < 1e-12 && (b - v(0.5, 0.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn extent_of_a_wide_wall_is_clipped_by_the_disc() {
+        // A long thin box 1 m to the right: visible part is a chord of the r=2 disc.
+        let poly = vec![v(1.0, -10.0), v(1.5, -10.0), v(1.5, 10.0), v(1.0, 10.0)];
+        let e = polygon_visible_extent(&poly, v(1.25, 0.0), v(0.0, 0.0), 2.0).unwrap();
+        assert!((e.dist - 1.0).abs() < 1e-12);
+        assert!(e.psi.abs() < 1e-12 || (e.psi - 2.0 * PI).abs() < 1e-12);
+        // Chord endpoints at x = 1, y = ±√3 → half-angle 60°.
+        assert!((e.delta - PI / 3.0).abs() < 1e-12, "{}", e.delta);
+    }
+
+    #[test]
+    fn extent_of_a_small_square_is_its_tangent_cone() {
+        let s = square(v(0.0, 3.0), 0.5);
+        let e = polygon_visible_extent(&s, v(0.0, 3.0), v(0.0, 0.0), 10.0).unwrap();
+        assert!((e.psi - PI / 2.0).abs() < 1e-12);
+        // Tangent rays through the near corners (±0.5, 2.5).
+        assert!((e.delta - (0.5f64 / 2.5).atan()).abs() < 1e-12);
+        assert!(polygon_visible_extent(&s, v(0.0, 3.0), v(0.0, 0.0), 2.4).is_none());
+    }
+
+    #[test]
+    fn extent_straddling_zero_direction() {
+        let s = square(v(3.0, 0.0), 0.5);
+        let e = polygon_visible_extent(&s, v(3.0, 0.0), v(0.0, 0.0), 10.0).unwrap();
+        assert!(wrap_pi(e.psi).abs() < 1e-12);
+        assert!((e.delta - (0.5f64 / 2.5).atan()).abs() < 1e-12);
+    }
+}

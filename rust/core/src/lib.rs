@@ -1,0 +1,16 @@
+//! wolfpack-core: a 2-D wolf-pack pursuit–evasion world and its analytic laws, in pure Rust.
+//!
+//! The layout follows SPEC.md: [`world`] (§1), [`policies`] (§2–§5), [`episode`] (§8 outcomes
+//! and logs). Python bindings live in a separate crate; nothing here knows of Python.
+
+pub mod config;
+pub mod episode;
+pub mod error;
+pub mod geometry;
+pub mod math;
+pub mod policies;
+pub mod world;
+
+pub use config::Params;
+pub use error::{Error, Result};
+pub use world::World;

@@ -1,0 +1,81 @@
+//! Vector types and angle helpers: the one place that names the linear-algebra crate.
+//!
+//! nalgebra comes through parry (`parry2d-f64`), so the world and the geometry queries share
+//! one version of it. The world is f64 throughout; observations (issue 3) are f32.
+
+pub use parry2d_f64::na;
+
+/// A 2-D vector (displacement, velocity, position relative to the origin).
+pub type Vec2 = na::Vector2<f64>;
+/// A point of the plane, as parry's queries take it.
+pub type Point2 = na::Point2<f64>;
+
+pub use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Maps an angle into [0, 2π) (SPEC's `wrap`).
+#[inline]
+pub fn wrap(a: f64) -> f64 {
+    let r = a.rem_euclid(TAU);
+    // rem_euclid can return TAU itself for tiny negative inputs after rounding.
+    if r >= TAU {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// Maps an angle into (−π, π]: the signed difference helper.
+#[inline]
+pub fn wrap_pi(a: f64) -> f64 {
+    let r = wrap(a);
+    if r > PI {
+        r - TAU
+    } else {
+        r
+    }
+}
+
+/// Direction of a vector as an angle in [0, 2π); the zero vector has direction 0.
+#[inline]
+pub fn angle_of(v: Vec2) -> f64 {
+    wrap(v.y.atan2(v.x))
+}
+
+/// Unit vector at angle `a`.
+#[inline]
+pub fn unit(a: f64) -> Vec2 {
+    let (s, c) = a.sin_cos();
+    Vec2::new(c, s)
+}
+
+/// 2-D cross product (z component of a × b).
+#[inline]
+pub fn cross(a: Vec2, b: Vec2) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_maps_into_half_open_turn() {
+        assert_eq!(wrap(0.0), 0.0);
+        assert!((wrap(-FRAC_PI_2) - 1.5 * PI).abs() < 1e-15);
+        assert!((wrap(TAU + 0.25) - 0.25).abs() < 1e-15);
+        assert_eq!(wrap(TAU), 0.0);
+        assert!(wrap(-1e-300) < TAU);
+    }
+
+    #[test]
+    fn wrap_pi_is_signed() {
+        assert!((wrap_pi(1.5 * PI) + FRAC_PI_2).abs() < 1e-15);
+        assert!((wrap_pi(PI) - PI).abs() < 1e-15);
+    }
+
+    #[test]
+    fn angle_of_quadrants() {
+        assert!((angle_of(Vec2::new(0.0, -1.0)) - 1.5 * PI).abs() < 1e-15);
+        assert_eq!(angle_of(Vec2::new(1.0, 0.0)), 0.0);
+    }
+}

@@ -1,0 +1,67 @@
+//! The analytic laws. Each reads the same [`Snapshot`] of the world (SPEC §1.5 step 2) and
+//! returns a [`Command`] (v, ω) that has been through the saturator (SPEC §2).
+//!
+//! | module | SPEC | who |
+//! |---|---|---|
+//! | [`saturator`] | §2 | everyone: desired velocity → (v, ω) |
+//! | [`seed000`] | §3 | wolves: attraction + tangential repulsion |
+//! | [`avoidance`] | §4 | wolves and targets: heading-based obstacle avoidance |
+//! | [`escape`] | §5 | targets: `escape`, `random`, `still` |
+
+pub mod avoidance;
+pub mod escape;
+pub mod saturator;
+pub mod seed000;
+
+use crate::config::Params;
+use crate::math::Vec2;
+use crate::world::{AgentState, Obstacle};
+
+/// What a controller asks of an agent for one step: linear speed v ≥ 0 and turn rate ω.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Command {
+    pub v: f64,
+    pub omega: f64,
+}
+
+/// The read-only state every controller sees at the start of a step (after obstacles moved).
+#[derive(Debug, Clone, Copy)]
+pub struct Snapshot<'a> {
+    pub params: &'a Params,
+    /// Steps completed before this one: 0 at the first step of an episode.
+    pub t: u32,
+    pub wolves: &'a [AgentState],
+    pub targets: &'a [AgentState],
+    pub obstacles: &'a [Obstacle],
+    /// The target each wolf hunts (its nearest uncaptured target, re-picked every
+    /// `world.retarget_period` steps).
+    pub wolf_target: &'a [usize],
+    /// Wolf i senses its own target: distance ≤ `agents.wolf.sense_radius`.
+    pub wolf_senses: &'a [bool],
+    /// First step at which target j sensed a wolf (`None`: never yet).
+    pub target_seen_at: &'a [Option<u32>],
+    pub target_captured: &'a [bool],
+}
+
+/// An emergency (SPEC §4) lasts several steps; the law remembers where it flees.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DangerMemory {
+    /// Steps of the current emergency still to run, this one included (0: none).
+    pub steps_left: u32,
+    /// Heading (rad) straight away from the dangerous interval's bisector.
+    pub away: f64,
+}
+
+/// What the seed000 law carries from one step to the next for one wolf.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WolfMemory {
+    /// The previous step's attraction vector ν₁ (zero before the first step).
+    pub last_attraction: Vec2,
+    pub danger: DangerMemory,
+}
+
+/// What the scripted target laws carry from one step to the next for one target.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TargetMemory {
+    pub danger: DangerMemory,
+}

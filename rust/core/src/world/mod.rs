@@ -1,0 +1,192 @@
+//! The world of SPEC §1: arena, agents, obstacles, sensing, one synchronous step.
+
+mod layout;
+mod obstacles;
+mod spawn;
+mod step;
+
+pub use layout::{Layout, LayoutObstacle};
+pub use obstacles::{Obstacle, ObstacleKind};
+
+use std::sync::Arc;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::config::Params;
+use crate::error::Result;
+use crate::geometry::body_triangle;
+use crate::math::Vec2;
+use crate::policies::{Command, TargetMemory, WolfMemory};
+
+/// Pose and last command of one unicycle agent, plus its accumulated energy.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct AgentState {
+    pub pos: Vec2,
+    /// Heading in [0, 2π).
+    pub theta: f64,
+    /// Linear speed executed in the last step (m/s).
+    pub v: f64,
+    /// Turn rate executed in the last step (rad/s).
+    pub omega: f64,
+    /// Σ ½ m v² over the steps so far (J; per step, no Ts factor — SPEC §1.2).
+    pub energy: f64,
+}
+
+impl AgentState {
+    pub fn at(x: f64, y: f64, theta: f64) -> Self {
+        Self { pos: Vec2::new(x, y), theta: crate::math::wrap(theta), ..Default::default() }
+    }
+}
+
+/// How an episode ended (SPEC §1.5 step 4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    Running,
+    /// Every target captured.
+    Captured,
+    /// A wolf overlapped an obstacle or another wolf.
+    Collision,
+    /// `world.max_steps` reached.
+    Timeout,
+}
+
+impl Outcome {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Running => "running",
+            Self::Captured => "captured",
+            Self::Collision => "collision",
+            Self::Timeout => "timeout",
+        }
+    }
+}
+
+// Streams of the per-world ChaCha generator: spawning, obstacle motion and the scripted laws
+// draw from separate streams, so a learned controller (which draws nothing) sees the same
+// obstacle motion as the scripted one for the same seed.
+const STREAM_SPAWN: u64 = 0;
+const STREAM_MOTION: u64 = 1;
+const STREAM_POLICY: u64 = 2;
+
+fn stream(seed: u64, s: u64) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(s);
+    r
+}
+
+/// One world: everything needed to step it, deterministic from (params, seed, layout).
+#[derive(Debug, Clone)]
+pub struct World {
+    pub params: Arc<Params>,
+    /// Steps completed.
+    pub t: u32,
+    pub wolves: Vec<AgentState>,
+    pub targets: Vec<AgentState>,
+    pub obstacles: Vec<Obstacle>,
+    pub wolf_target: Vec<usize>,
+    pub wolf_senses: Vec<bool>,
+    pub target_seen_at: Vec<Option<u32>>,
+    pub target_captured: Vec<bool>,
+    pub target_capture_step: Vec<Option<u32>>,
+    pub wolf_memory: Vec<WolfMemory>,
+    pub target_memory: Vec<TargetMemory>,
+    /// This step's interaction matrix, (N+M)² row-major; rows/columns: wolves, then targets.
+    pub interaction: Vec<u8>,
+    /// Steps each agent (wolves, then targets) spent overlapping an obstacle or a wolf.
+    pub collisions: Vec<u32>,
+    pub outcome: Outcome,
+    rng_motion: ChaCha8Rng,
+    rng_policy: ChaCha8Rng,
+    // Per-step scratch, kept to avoid allocation on the hot path.
+    wolf_cmds: Vec<Command>,
+    target_cmds: Vec<Command>,
+    bodies: Vec<[Vec2; 3]>,
+}
+
+impl World {
+    /// A world spawned at random from `seed` (SPEC §1.3 spawn rules).
+    pub fn new(params: Arc<Params>, seed: u64) -> Result<Self> {
+        params.validate()?;
+        let mut rng = stream(seed, STREAM_SPAWN);
+        let (wolves, targets, obstacles) = spawn::spawn(&params, &mut rng)?;
+        Ok(Self::assemble(params, seed, wolves, targets, obstacles))
+    }
+
+    /// A world started from an explicit layout. The layout's agent counts replace
+    /// `world.wolves` / `world.targets` (a `null` capture count follows them); its obstacles
+    /// are the whole obstacle set. `seed` drives obstacle motion and the scripted laws.
+    pub fn from_layout(params: Arc<Params>, seed: u64, layout: &Layout) -> Result<Self> {
+        let (n, m) = (layout.wolves.len(), layout.targets.len());
+        let params = if (params.world.wolves, params.world.targets) == (n, m) {
+            params
+        } else {
+            Arc::new(params.with_counts(n, m))
+        };
+        params.validate().map_err(|e| crate::error::Error::Layout(e.to_string()))?;
+        let (wolves, targets, obstacles) = spawn::from_layout(&params, layout)?;
+        Ok(Self::assemble(params, seed, wolves, targets, obstacles))
+    }
+
+    fn assemble(params: Arc<Params>, seed: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
+        let (n, m) = (wolves.len(), targets.len());
+        let mut w = Self {
+            params,
+            t: 0,
+            wolves,
+            targets,
+            obstacles,
+            wolf_target: vec![0; n],
+            wolf_senses: vec![false; n],
+            target_seen_at: vec![None; m],
+            target_captured: vec![false; m],
+            target_capture_step: vec![None; m],
+            wolf_memory: vec![WolfMemory::default(); n],
+            target_memory: vec![TargetMemory::default(); m],
+            interaction: vec![0; (n + m) * (n + m)],
+            collisions: vec![0; n + m],
+            outcome: Outcome::Running,
+            rng_motion: stream(seed, STREAM_MOTION),
+            rng_policy: stream(seed, STREAM_POLICY),
+            wolf_cmds: vec![Command::default(); n],
+            target_cmds: vec![Command::default(); m],
+            bodies: Vec::with_capacity(n),
+        };
+        w.assign_targets();
+        w
+    }
+
+    pub fn n_wolves(&self) -> usize {
+        self.wolves.len()
+    }
+
+    pub fn n_targets(&self) -> usize {
+        self.targets.len()
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.outcome != Outcome::Running
+    }
+
+    /// The body triangle of an agent state.
+    pub fn body(&self, a: &AgentState) -> [Vec2; 3] {
+        let b = &self.params.agents.body;
+        body_triangle(a.pos, a.theta, b.base, b.height)
+    }
+
+    /// Step at which the last target was captured, if the episode ended in a capture.
+    pub fn capture_step(&self) -> Option<u32> {
+        (self.outcome == Outcome::Captured).then(|| self.target_capture_step.iter().flatten().copied().max()).flatten()
+    }
+}
+
+impl Params {
+    /// The same parameters with the agent counts replaced (e.g. by a layout's). An explicit
+    /// `capture.count` larger than the new wolf count is an error at validation.
+    pub fn with_counts(&self, wolves: usize, targets: usize) -> Params {
+        let mut p = self.clone();
+        p.world.wolves = wolves;
+        p.world.targets = targets;
+        p
+    }
+}

@@ -1,0 +1,300 @@
+//! One synchronous step (SPEC §1.5): obstacles move; every controller reads the same snapshot;
+//! agents move through the feasibility filter; outcomes; the clock advances.
+
+use parry2d_f64::transformation::convex_hull;
+
+use super::{AgentState, Outcome, World};
+use crate::config::{CaptureRule, SideParams, TargetPolicy, WolfPolicy};
+use crate::geometry::{body_triangle, triangle_contains, triangles_overlap};
+use crate::math::{unit, wrap, Point2, Vec2};
+use crate::policies::{escape, seed000, Command, Snapshot};
+
+/// Below this speed an infeasible wolf stops halving and only turns (SPEC §1.5).
+const MIN_HALVED_SPEED: f64 = 0.01;
+
+impl World {
+    /// Advances one step with every agent driven by its side's scripted law.
+    pub fn step(&mut self) -> Outcome {
+        self.step_with(None, None)
+    }
+
+    /// Advances one step. `wolf_cmds` / `target_cmds`, when given, replace the scripted law of
+    /// that side (one command per agent; learned controllers). Commands are clamped to the
+    /// side's limits. A finished world does not move.
+    pub fn step_with(&mut self, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) -> Outcome {
+        if self.is_done() {
+            return self.outcome;
+        }
+        let p = self.params.clone();
+        // 1. Obstacles move.
+        for o in &mut self.obstacles {
+            o.advance(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
+        }
+        // 2. Sensing and the snapshot every controller reads.
+        if self.t % p.world.retarget_period == 0 {
+            self.assign_targets();
+        }
+        self.sense();
+        self.control(wolf_cmds, target_cmds);
+        // 3. Moves through the feasibility filter: wolves in index order, then targets.
+        self.move_wolves();
+        self.move_targets();
+        // 4. Outcomes.
+        self.t += 1;
+        self.judge();
+        self.outcome
+    }
+
+    /// Each wolf hunts its nearest uncaptured target (ties: lowest index).
+    pub(super) fn assign_targets(&mut self) {
+        for (i, w) in self.wolves.iter().enumerate() {
+            let mut best = (f64::INFINITY, self.wolf_target[i]);
+            for (j, t) in self.targets.iter().enumerate() {
+                if self.target_captured[j] {
+                    continue;
+                }
+                let d = (t.pos - w.pos).norm_squared();
+                if d < best.0 {
+                    best = (d, j);
+                }
+            }
+            self.wolf_target[i] = best.1;
+        }
+    }
+
+    /// Sensing flags, first sightings and the sensing entries of the interaction matrix.
+    fn sense(&mut self) {
+        let (n, m) = (self.n_wolves(), self.n_targets());
+        let k = n + m;
+        let rw = self.params.agents.wolf.sense_radius;
+        let rt = self.params.agents.target.sense_radius;
+        self.interaction.fill(0);
+        // A wolf's own target may have been captured since the last re-assignment.
+        if self.wolf_target.iter().any(|&j| self.target_captured[j]) && !self.target_captured.iter().all(|&c| c) {
+            self.assign_targets();
+        }
+        for i in 0..n {
+            let wp = self.wolves[i].pos;
+            for j in 0..m {
+                let d = (self.targets[j].pos - wp).norm();
+                if d <= rw {
+                    self.interaction[i * k + n + j] = 1;
+                }
+                if d <= rt {
+                    self.interaction[(n + j) * k + i] = 1;
+                }
+            }
+            self.wolf_senses[i] = self.interaction[i * k + n + self.wolf_target[i]] == 1;
+        }
+        for j in 0..m {
+            let row = (n + j) * k;
+            if self.target_seen_at[j].is_none() && self.interaction[row..row + n].iter().any(|&x| x == 1) {
+                self.target_seen_at[j] = Some(self.t);
+            }
+        }
+    }
+
+    /// Step 2: every controller reads the same snapshot; commands land in the scratch buffers.
+    fn control(&mut self, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) {
+        let (n, k) = (self.n_wolves(), self.n_wolves() + self.n_targets());
+        let snap = Snapshot {
+            params: &self.params,
+            t: self.t,
+            wolves: &self.wolves,
+            targets: &self.targets,
+            obstacles: &self.obstacles,
+            wolf_target: &self.wolf_target,
+            wolf_senses: &self.wolf_senses,
+            target_seen_at: &self.target_seen_at,
+            target_captured: &self.target_captured,
+        };
+        match wolf_cmds {
+            Some(c) => self.wolf_cmds.copy_from_slice(c),
+            None => {
+                debug_assert_eq!(self.params.policies.wolves, WolfPolicy::Seed000);
+                for i in 0..n {
+                    let row = &mut self.interaction[i * k..(i + 1) * k];
+                    self.wolf_cmds[i] = seed000::wolf_command(i, &snap, &mut self.wolf_memory[i], row);
+                }
+            }
+        }
+        match target_cmds {
+            Some(c) => self.target_cmds.copy_from_slice(c),
+            None => {
+                for j in 0..self.targets.len() {
+                    self.target_cmds[j] = if self.target_captured[j] {
+                        Command::default()
+                    } else {
+                        match self.params.policies.targets {
+                            TargetPolicy::Escape => escape::escape_command(j, &snap, &mut self.target_memory[j], &mut self.rng_policy),
+                            TargetPolicy::Random => escape::random_command(j, &snap, &mut self.target_memory[j], &mut self.rng_policy),
+                            TargetPolicy::Still => Command::default(),
+                        }
+                    };
+                }
+            }
+        }
+    }
+
+    fn move_wolves(&mut self) {
+        let p = self.params.clone();
+        let b = &p.agents.body;
+        let ts = p.world.ts;
+        self.bodies.clear();
+        self.bodies.extend(self.wolves.iter().map(|w| body_triangle(w.pos, w.theta, b.base, b.height)));
+        for i in 0..self.wolves.len() {
+            let cmd = clamp(self.wolf_cmds[i], &p.agents.wolf);
+            let w = self.wolves[i];
+            let theta = wrap(w.theta + cmd.omega * ts);
+            let mut v = cmd.v;
+            if p.world.feasibility_filter {
+                loop {
+                    if v < MIN_HALVED_SPEED {
+                        v = 0.0;
+                        break;
+                    }
+                    let pos = w.pos + unit(w.theta) * (v * ts);
+                    if self.wolf_pose_feasible(i, pos, theta) {
+                        break;
+                    }
+                    v *= 0.5;
+                }
+            }
+            let pos = w.pos + unit(w.theta) * (v * ts);
+            let mass = p.agents.wolf.mass;
+            self.wolves[i] = AgentState { pos, theta, v, omega: cmd.omega, energy: w.energy + 0.5 * mass * v * v };
+            self.bodies[i] = body_triangle(pos, theta, b.base, b.height);
+        }
+    }
+
+    /// New pose strictly inside the border, body clear of obstacles and of the other wolves'
+    /// current bodies.
+    fn wolf_pose_feasible(&self, i: usize, pos: Vec2, theta: f64) -> bool {
+        let p = &self.params;
+        let [x0, y0, x1, y1] = p.world.border;
+        if !(pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1) {
+            return false;
+        }
+        let body = body_triangle(pos, theta, p.agents.body.base, p.agents.body.height);
+        let reach = 2.0 * p.agents.body.height.max(p.agents.body.base);
+        if self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
+            return false;
+        }
+        !self.bodies.iter().enumerate().any(|(j, other)| j != i && (self.wolves[j].pos - pos).norm() <= reach && triangles_overlap(&body, other))
+    }
+
+    fn move_targets(&mut self) {
+        let p = self.params.clone();
+        let b = &p.agents.body;
+        let ts = p.world.ts;
+        let side = p.agents.target.side();
+        let [x0, y0, x1, y1] = p.world.border;
+        for j in 0..self.targets.len() {
+            let t = self.targets[j];
+            let mut cmd = clamp(self.target_cmds[j], &side);
+            if self.target_captured[j] {
+                cmd = Command::default();
+            }
+            if p.agents.target.fatigue {
+                if let Some(seen) = self.target_seen_at[j] {
+                    cmd.v = cmd.v.min(p.escape.fatigue_speed(seen, self.t));
+                }
+            }
+            let theta = wrap(t.theta + cmd.omega * ts);
+            let mut v = cmd.v;
+            let pos = t.pos + unit(t.theta) * (v * ts);
+            if p.world.feasibility_filter && v > 0.0 {
+                let inside = pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1;
+                let body = body_triangle(pos, theta, b.base, b.height);
+                if !inside || self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
+                    v = 0.0; // SPEC: a target that cannot move feasibly only turns.
+                }
+            }
+            let pos = t.pos + unit(t.theta) * (v * ts);
+            let mass = side.mass;
+            self.targets[j] = AgentState { pos, theta, v, omega: cmd.omega, energy: t.energy + 0.5 * mass * v * v };
+        }
+    }
+
+    /// Step 4: collisions, captures, the episode's end.
+    fn judge(&mut self) {
+        let p = self.params.clone();
+        let n = self.n_wolves();
+        let reach = 2.0 * p.agents.body.height.max(p.agents.body.base);
+        let mut wolf_collided = false;
+        for i in 0..n {
+            let body = self.bodies[i];
+            let hit_obstacle = self.obstacles.iter().any(|o| o.overlaps_triangle(&body));
+            let hit_wolf = (0..n).any(|j| j != i && (self.wolves[j].pos - self.wolves[i].pos).norm() <= reach && triangles_overlap(&body, &self.bodies[j]));
+            if hit_obstacle || hit_wolf {
+                self.collisions[i] += 1;
+                wolf_collided = true;
+            }
+        }
+        for j in 0..self.targets.len() {
+            let body = self.body(&self.targets[j]);
+            if self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
+                self.collisions[n + j] += 1;
+            }
+        }
+        let need = p.capture_count();
+        for j in 0..self.targets.len() {
+            if self.target_captured[j] {
+                continue;
+            }
+            let tp = self.targets[j].pos;
+            let close: Vec<Vec2> = self.wolves.iter().map(|w| w.pos).filter(|q| (q - tp).norm() <= p.capture.distance).collect();
+            let captured = close.len() >= need
+                && match p.capture.rule {
+                    CaptureRule::Count => true,
+                    CaptureRule::Encircle => encircled(&close, tp),
+                };
+            if captured {
+                self.target_captured[j] = true;
+                self.target_capture_step[j] = Some(self.t);
+            }
+        }
+        // A wolf collision ends the episode as a failure even if the same step captured.
+        self.outcome = if wolf_collided {
+            Outcome::Collision
+        } else if self.target_captured.iter().all(|&c| c) {
+            Outcome::Captured
+        } else if self.t >= p.world.max_steps {
+            Outcome::Timeout
+        } else {
+            Outcome::Running
+        };
+    }
+}
+
+/// The target lies inside (or on) the convex hull of the given wolves.
+fn encircled(wolves: &[Vec2], target: Vec2) -> bool {
+    if wolves.len() < 3 {
+        return false;
+    }
+    let pts: Vec<Point2> = wolves.iter().map(|w| Point2::from(*w)).collect();
+    let hull = convex_hull(&pts);
+    if hull.len() < 3 {
+        return false;
+    }
+    // Fan from the first hull vertex covers the convex hull exactly.
+    (1..hull.len() - 1).any(|k| triangle_contains(&[hull[0].coords, hull[k].coords, hull[k + 1].coords], target))
+}
+
+/// Applies a side's limits: v ∈ [0, v_max] (no reverse), |ω| ≤ ω_max.
+fn clamp(c: Command, s: &SideParams) -> Command {
+    Command { v: c.v.clamp(0.0, s.v_max), omega: c.omega.clamp(-s.omega_max, s.omega_max) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encircle_needs_the_target_inside_the_hull() {
+        let ring = [Vec2::new(1.0, 0.0), Vec2::new(-0.5, 0.8), Vec2::new(-0.5, -0.8)];
+        assert!(encircled(&ring, Vec2::zeros()));
+        assert!(!encircled(&ring, Vec2::new(2.0, 0.0)));
+        assert!(!encircled(&ring[..2], Vec2::zeros()));
+    }
+}
