@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::config::Params;
 use crate::error::{Error, Result};
-use crate::world::{Layout, Outcome, World};
+use crate::world::{Layout, ObstacleKind, Outcome, World};
 
 /// Per-step logs of one episode, flat row-major buffers (T = steps taken).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -20,6 +20,19 @@ pub struct Trajectory {
     pub energy: Vec<f64>,
     /// [T, N+M, N+M] interaction matrices.
     pub interaction: Vec<u8>,
+    /// [T+1, K, 3]: obstacle centre x, y and polygon angle (rad), for plots and replays.
+    pub obstacles: Vec<f64>,
+    /// The K obstacles' shapes (constant over the episode).
+    pub obstacle_shapes: Vec<ObstacleShape>,
+}
+
+/// An obstacle's constant shape: kind, radius (bounding radius for polygons) and polygon
+/// vertices relative to the centre at angle 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObstacleShape {
+    pub kind: &'static str,
+    pub radius: f64,
+    pub local: Vec<[f64; 2]>,
 }
 
 impl Trajectory {
@@ -31,6 +44,25 @@ impl Trajectory {
             self.targets.extend_from_slice(&[a.pos.x, a.pos.y, a.theta, a.v, a.omega]);
         }
         self.energy.extend(w.wolves.iter().chain(&w.targets).map(|a| a.energy));
+        for o in &w.obstacles {
+            self.obstacles.extend_from_slice(&[o.center.x, o.center.y, o.angle]);
+        }
+    }
+
+    fn shapes(w: &World) -> Vec<ObstacleShape> {
+        w.obstacles
+            .iter()
+            .map(|o| ObstacleShape {
+                kind: match o.kind {
+                    ObstacleKind::StaticCircle => "static_circle",
+                    ObstacleKind::MovingCircle => "moving_circle",
+                    ObstacleKind::StaticPolygon => "static_polygon",
+                    ObstacleKind::MovingPolygon => "moving_polygon",
+                },
+                radius: o.radius,
+                local: o.local.iter().map(|v| [v.x, v.y]).collect(),
+            })
+            .collect()
     }
 }
 
@@ -65,6 +97,8 @@ pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, rec
             targets: Vec::with_capacity(rows * m * 5),
             energy: Vec::with_capacity(rows * (n + m)),
             interaction: Vec::with_capacity((rows - 1) * (n + m) * (n + m)),
+            obstacles: Vec::with_capacity(rows * world.obstacles.len() * 3),
+            obstacle_shapes: Trajectory::shapes(&world),
         };
         t.push(&world);
         t
