@@ -118,6 +118,10 @@ impl World {
     /// are the whole obstacle set. `seed` drives obstacle motion and the scripted laws.
     pub fn from_layout(params: Arc<Params>, seed: u64, layout: &Layout) -> Result<Self> {
         let (n, m) = (layout.wolves.len(), layout.targets.len());
+        if n == 0 || m == 0 {
+            let who = if n == 0 { "wolf" } else { "target" };
+            return Err(crate::error::Error::Layout(format!("needs at least one {who}")));
+        }
         let params = if (params.world.wolves, params.world.targets) == (n, m) {
             params
         } else {

@@ -182,12 +182,6 @@ fn is_simple(v: &[Vec2]) -> bool {
 }
 
 pub(super) fn from_layout(p: &Params, layout: &Layout) -> Result<Spawned> {
-    if layout.wolves.is_empty() {
-        return Err(Error::Layout("needs at least one wolf".into()));
-    }
-    if layout.targets.is_empty() {
-        return Err(Error::Layout("needs at least one target".into()));
-    }
     let wolves = layout.wolves.iter().enumerate().map(|(i, w)| check_pose(&format!("wolf {i}"), *w, p)).collect::<Result<Vec<_>>>()?;
     let targets = layout.targets.iter().enumerate().map(|(j, t)| check_pose(&format!("target {j}"), *t, p)).collect::<Result<Vec<_>>>()?;
     let obstacles = layout.obstacles.iter().enumerate().map(|(k, o)| check_obstacle(k, o, p)).collect::<Result<Vec<_>>>()?;

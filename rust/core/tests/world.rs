@@ -1,0 +1,298 @@
+//! The world of SPEC §1 without the scripted laws: spawning, layouts, kinematics, the
+//! feasibility filter, energy, collisions, capture rules and the clock. Commands are given
+//! explicitly (`step_with`), so these tests pin the world alone.
+
+use std::sync::Arc;
+
+use proptest::prelude::*;
+use wolfpack_core::config::{CaptureRule, Params};
+use wolfpack_core::error::Error;
+use wolfpack_core::policies::Command;
+use wolfpack_core::world::{Layout, LayoutObstacle, Outcome, World};
+
+fn params() -> Params {
+    Params::default()
+}
+
+fn layout(wolves: Vec<[f64; 3]>, targets: Vec<[f64; 3]>, obstacles: Vec<LayoutObstacle>) -> Layout {
+    Layout { wolves, targets, obstacles }
+}
+
+fn cmds(n: usize, v: f64, omega: f64) -> Vec<Command> {
+    vec![Command { v, omega }; n]
+}
+
+#[test]
+fn spawning_is_reproducible_from_the_seed_alone() {
+    let p = Arc::new(params());
+    let a = World::new(p.clone(), 42).unwrap();
+    let b = World::new(p.clone(), 42).unwrap();
+    let c = World::new(p, 43).unwrap();
+    assert_eq!(a.wolves, b.wolves);
+    assert_eq!(a.obstacles, b.obstacles);
+    assert_ne!(a.wolves, c.wolves);
+}
+
+#[test]
+fn spawned_layouts_follow_the_spawn_rules() {
+    let p = Arc::new(params());
+    for seed in 0..100 {
+        let w = World::new(p.clone(), seed).unwrap();
+        assert_eq!((w.wolves.len(), w.targets.len(), w.obstacles.len()), (5, 1, 12));
+        for a in &w.wolves {
+            // central ¾ of [-10, 10]²
+            assert!(a.pos.x.abs() <= 7.5 && a.pos.y.abs() <= 7.5, "{:?}", a.pos);
+        }
+        let t = w.targets[0].pos;
+        assert!(w.wolves.iter().any(|a| (a.pos - t).norm() <= 3.0));
+        for (k, o) in w.obstacles.iter().enumerate() {
+            assert!(o.center.x.abs() <= 8.0 && o.center.y.abs() <= 8.0);
+            for a in w.wolves.iter().chain(&w.targets) {
+                assert!((a.pos - o.center).norm() > o.radius + 1.5);
+            }
+            for q in &w.obstacles[..k] {
+                assert!((q.center - o.center).norm() > o.radius + 1.5 + q.radius);
+            }
+        }
+        let kinds: Vec<_> = w.obstacles.iter().map(|o| (o.kind.is_circle(), o.kind.is_moving())).collect();
+        assert_eq!(kinds.iter().filter(|k| **k == (true, false)).count(), 1);
+        assert_eq!(kinds.iter().filter(|k| **k == (false, true)).count(), 5);
+    }
+}
+
+#[test]
+fn an_impossible_layout_fails_quickly_with_a_named_reason() {
+    let mut p = params();
+    p.obstacles.static_polygons = 500;
+    let t0 = std::time::Instant::now();
+    let e = World::new(Arc::new(p), 0).unwrap_err();
+    assert!(matches!(e, Error::Spawn(_)));
+    assert!(e.to_string().contains("static polygon"), "{e}");
+    // Bounded by attempts, not by time: generous limit, only to catch a hang.
+    assert!(t0.elapsed().as_secs() < 60);
+}
+
+#[test]
+fn layout_errors_name_the_problem() {
+    let p = Arc::new(params());
+    let circle = LayoutObstacle::Circle { center: [2.0, 0.0], radius: 1.0, moving: false };
+    let cases = [
+        (layout(vec![[11.0, 0.0, 0.0]], vec![[0.0, 0.0, 0.0]], vec![]), "outside the arena"),
+        (layout(vec![[2.0, 0.5, 0.0]], vec![[0.0, 0.0, 0.0]], vec![circle.clone()]), "wolf 0 overlaps obstacle 0"),
+        (layout(vec![[-5.0, 0.0, 0.0]], vec![[2.0, 0.0, 0.0]], vec![circle]), "target 0 overlaps obstacle 0"),
+        (layout(vec![[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]], vec![[5.0, 0.0, 0.0]], vec![]), "wolf 1 overlaps wolf 0"),
+        (layout(vec![], vec![[5.0, 0.0, 0.0]], vec![]), "at least one wolf"),
+        (
+            layout(
+                vec![[-5.0, 0.0, 0.0]],
+                vec![[5.0, 0.0, 0.0]],
+                vec![LayoutObstacle::Polygon { center: [0.0, 0.0], vertices: vec![[-1.0, -1.0], [1.0, 1.0], [1.0, -1.0], [-1.0, 1.0]], moving: false }],
+            ),
+            "edges cross",
+        ),
+    ];
+    for (l, needle) in cases {
+        let e = World::from_layout(p.clone(), 0, &l).unwrap_err();
+        assert!(matches!(e, Error::Layout(_)), "{e}");
+        assert!(e.to_string().contains(needle), "{e} lacks {needle}");
+    }
+}
+
+#[test]
+fn a_layout_sets_the_agent_counts_and_the_derived_capture_count() {
+    let l = layout(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], vec![[5.0, 0.0, 0.0], [-5.0, 0.0, 0.0]], vec![]);
+    let w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
+    assert_eq!((w.n_wolves(), w.n_targets()), (3, 2));
+    assert_eq!(w.params.capture_count(), 3);
+    assert_eq!(w.interaction.len(), 25);
+}
+
+#[test]
+fn unicycle_moves_along_the_old_heading_and_accumulates_energy() {
+    let l = layout(vec![[0.0, 0.0, 0.0]], vec![[5.0, 5.0, 0.0]], vec![]);
+    let mut w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
+    w.step_with(Some(&cmds(1, 1.0, 5.0)), Some(&cmds(1, 0.0, 0.0)));
+    let a = w.wolves[0];
+    // x += v cos θ_old Ts = 0.1; θ = 0 + 5 · 0.1 = 0.5; energy ½ · 1 · 1².
+    assert!((a.pos.x - 0.1).abs() < 1e-15 && a.pos.y.abs() < 1e-15);
+    assert!((a.theta - 0.5).abs() < 1e-15);
+    assert_eq!((a.v, a.omega), (1.0, 5.0));
+    assert!((a.energy - 0.5).abs() < 1e-15);
+    w.step_with(Some(&cmds(1, 1.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    let b = w.wolves[0];
+    assert!((b.pos.x - (0.1 + 0.1 * 0.5f64.cos())).abs() < 1e-15);
+    assert!((b.pos.y - 0.1 * 0.5f64.sin()).abs() < 1e-15);
+    assert!((b.energy - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn commands_are_clamped_to_the_side_limits() {
+    let l = layout(vec![[0.0, 0.0, 0.0]], vec![[5.0, 5.0, 0.0]], vec![]);
+    let mut w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
+    w.step_with(Some(&cmds(1, 9.0, -100.0)), Some(&cmds(1, -3.0, 0.0)));
+    assert_eq!(w.wolves[0].v, 1.5);
+    assert_eq!(w.wolves[0].omega, -7.0);
+    assert_eq!(w.targets[0].v, 0.0);
+}
+
+#[test]
+fn feasibility_filter_halves_the_speed_until_the_move_fits() {
+    // Wolf 0.1 m from the right wall, heading into it at 1.5 m/s (0.15 m per step): halved to
+    // 0.75 (0.075 m) which stays strictly inside.
+    let l = layout(vec![[9.9, 0.0, 0.0]], vec![[0.0, 5.0, 0.0]], vec![]);
+    let mut w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
+    w.step_with(Some(&cmds(1, 1.5, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!(w.wolves[0].v, 0.75);
+    assert!((w.wolves[0].pos.x - 9.975).abs() < 1e-12);
+    // Against the wall: below 0.01 the wolf only turns.
+    let l = layout(vec![[9.9999, 0.0, 0.0]], vec![[0.0, 5.0, 0.0]], vec![]);
+    let mut w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
+    w.step_with(Some(&cmds(1, 1.5, 2.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!(w.wolves[0].v, 0.0);
+    assert!((w.wolves[0].theta - 0.2).abs() < 1e-15);
+    assert_eq!(w.outcome, Outcome::Running);
+}
+
+#[test]
+fn feasibility_filter_keeps_wolves_apart_and_off_obstacles() {
+    // Wolf 0 drives at wolf 1 (0.35 m ahead, facing away); wolf 1 drives at a circle.
+    let circle = LayoutObstacle::Circle { center: [3.0, 0.0], radius: 0.5, moving: false };
+    let l = layout(vec![[0.0, 0.0, 0.0], [0.35, 0.0, 0.0]], vec![[-5.0, 5.0, 0.0]], vec![circle]);
+    let mut p = params();
+    p.obstacles.rotation_max = 0.0;
+    let mut w = World::from_layout(Arc::new(p), 0, &l).unwrap();
+    for _ in 0..40 {
+        w.step_with(Some(&[Command { v: 1.5, omega: 0.0 }, Command { v: 1.5, omega: 0.0 }]), Some(&cmds(1, 0.0, 0.0)));
+        assert_eq!(w.outcome, Outcome::Running, "step {}", w.t);
+    }
+    // Wolf 1's apex (0.2 ahead) stays short of the circle at x = 2.5; wolf 0 behind it.
+    assert!(w.wolves[1].pos.x + 0.2 < 2.5 && w.wolves[1].pos.x > 2.2);
+    assert!(w.wolves[0].pos.x + 0.2 < w.wolves[1].pos.x);
+}
+
+#[test]
+fn without_the_filter_a_wolf_can_collide() {
+    let circle = LayoutObstacle::Circle { center: [1.0, 0.0], radius: 0.5, moving: false };
+    let l = layout(vec![[0.0, 0.0, 0.0]], vec![[-5.0, 5.0, 0.0]], vec![circle]);
+    let mut p = params();
+    p.world.feasibility_filter = false;
+    let mut w = World::from_layout(Arc::new(p), 0, &l).unwrap();
+    let mut steps = 0;
+    while w.step_with(Some(&cmds(1, 1.5, 0.0)), Some(&cmds(1, 0.0, 0.0))) == Outcome::Running {
+        steps += 1;
+    }
+    assert_eq!(w.outcome, Outcome::Collision);
+    // Apex reaches x = 0.5 after 0.3 m of travel: step 2 (0.15 per step).
+    assert_eq!(steps + 1, 2);
+    assert_eq!(w.collisions[0], 1);
+}
+
+fn ring(n: usize, r: f64) -> Vec<[f64; 3]> {
+    (0..n).map(|k| {
+        let a = k as f64 * std::f64::consts::TAU / n as f64;
+        [r * a.cos(), r * a.sin(), a]
+    }).collect()
+}
+
+#[test]
+fn capture_needs_count_wolves_within_the_distance() {
+    let p = Arc::new(params()); // count = ⌈0.8·5⌉ = 4, distance 0.8
+    let mut wolves = ring(3, 0.7);
+    wolves.extend([[5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]]);
+    let mut w = World::from_layout(p.clone(), 0, &layout(wolves.clone(), vec![[0.0, 0.0, 0.0]], vec![])).unwrap();
+    w.step_with(Some(&cmds(5, 0.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!(w.outcome, Outcome::Running);
+    wolves[3] = [0.0, -0.79, 0.0];
+    let mut w = World::from_layout(p, 0, &layout(wolves, vec![[0.0, 0.0, 0.0]], vec![])).unwrap();
+    w.step_with(Some(&cmds(5, 0.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!(w.outcome, Outcome::Captured);
+    assert_eq!(w.capture_step(), Some(1));
+}
+
+#[test]
+fn encircle_rule_also_needs_the_target_inside_the_hull() {
+    let mut p = params();
+    p.capture.rule = CaptureRule::Encircle;
+    p.capture.count = Some(3);
+    let p = Arc::new(p);
+    // Three wolves on one side of the target: count met, hull misses the target.
+    let one_side = vec![[0.5, -0.5, 0.0], [0.6, 0.0, 0.0], [0.5, 0.5, 0.0], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]];
+    let mut w = World::from_layout(p.clone(), 0, &layout(one_side, vec![[0.0, 0.0, 0.0]], vec![])).unwrap();
+    w.step_with(Some(&cmds(5, 0.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!(w.outcome, Outcome::Running);
+    let mut around = ring(3, 0.7);
+    around.extend([[5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]]);
+    let mut w = World::from_layout(p, 0, &layout(around, vec![[0.0, 0.0, 0.0]], vec![])).unwrap();
+    w.step_with(Some(&cmds(5, 0.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!(w.outcome, Outcome::Captured);
+}
+
+#[test]
+fn episode_times_out_at_max_steps() {
+    let mut p = params();
+    p.world.max_steps = 7;
+    let l = layout(vec![[0.0, 0.0, 0.0]], vec![[5.0, 5.0, 0.0]], vec![]);
+    let mut w = World::from_layout(Arc::new(p), 0, &l).unwrap();
+    let mut n = 0;
+    while w.step_with(Some(&cmds(1, 0.0, 1.0)), Some(&cmds(1, 0.0, 0.0))) == Outcome::Running {
+        n += 1;
+    }
+    assert_eq!((n + 1, w.t, w.outcome), (7, 7, Outcome::Timeout));
+    // A finished world stays put.
+    let before = w.wolves.clone();
+    w.step_with(Some(&cmds(1, 1.0, 1.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert_eq!((w.t, &w.wolves), (7, &before));
+}
+
+#[test]
+fn sensing_fills_the_interaction_matrix_and_first_sighting() {
+    // Wolf 0 at 2.9 m (senses), wolf 1 at 3.1 m (does not).
+    let l = layout(vec![[-2.9, 0.0, 0.0], [3.1, 0.0, 0.0]], vec![[0.0, 0.0, 1.0]], vec![]);
+    let mut w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
+    w.step_with(Some(&cmds(2, 0.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    let k = 3;
+    assert_eq!(w.interaction[0 * k + 2], 1);
+    assert_eq!(w.interaction[1 * k + 2], 0);
+    assert_eq!(w.interaction[2 * k + 0], 1);
+    assert_eq!(w.interaction[2 * k + 1], 0);
+    assert_eq!(w.target_seen_at[0], Some(0));
+    assert_eq!(w.wolf_senses, vec![true, false]);
+}
+
+#[test]
+fn moving_obstacles_follow_the_seeded_motion_stream() {
+    let p = Arc::new(params());
+    let mut a = World::new(p.clone(), 9).unwrap();
+    let mut b = World::new(p, 9).unwrap();
+    // Different controllers, same obstacle motion: motion has its own stream.
+    for _ in 0..20 {
+        a.step_with(Some(&cmds(5, 0.0, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+        b.step_with(Some(&cmds(5, 0.0, 1.0)), Some(&cmds(1, 0.0, -1.0)));
+    }
+    assert_eq!(a.obstacles, b.obstacles);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// With the feasibility filter on, no command sequence takes a wolf out of the arena, and
+    /// headings stay in [0, 2π); obstacles stay inside the arena.
+    #[test]
+    fn wolves_and_obstacles_stay_inside(seed in 0u64..1000, cmds_seq in proptest::collection::vec((0.0f64..2.0, -8.0f64..8.0), 1..60)) {
+        let mut w = World::new(Arc::new(params()), seed).unwrap();
+        for (v, om) in cmds_seq {
+            let c = vec![Command { v, omega: om }; 5];
+            w.step_with(Some(&c), Some(&[Command { v, omega: -om }]));
+            for a in w.wolves.iter().chain(&w.targets) {
+                prop_assert!(a.pos.x > -10.0 && a.pos.x < 10.0 && a.pos.y > -10.0 && a.pos.y < 10.0);
+                prop_assert!(a.theta >= 0.0 && a.theta < std::f64::consts::TAU);
+                prop_assert!(a.v >= 0.0 && a.v <= 1.5);
+            }
+            for o in &w.obstacles {
+                prop_assert!(o.center.x.abs() <= 10.0 - o.radius + 1e-9);
+                prop_assert!(o.center.y.abs() <= 10.0 - o.radius + 1e-9);
+            }
+            if w.is_done() { break; }
+        }
+    }
+}
