@@ -243,11 +243,12 @@ impl World {
                 continue;
             }
             let tp = self.targets[j].pos;
-            let close: Vec<Vec2> = self.wolves.iter().map(|w| w.pos).filter(|q| (q - tp).norm() <= p.capture.distance).collect();
-            let captured = close.len() >= need
+            let near = |q: &Vec2| (q - tp).norm() <= p.capture.distance;
+            let captured = self.wolves.iter().filter(|w| near(&w.pos)).count() >= need
                 && match p.capture.rule {
                     CaptureRule::Count => true,
-                    CaptureRule::Encircle => encircled(&close, tp),
+                    // Rare path (only once enough wolves are close): allocation is fine here.
+                    CaptureRule::Encircle => encircled(&self.wolves.iter().map(|w| w.pos).filter(near).collect::<Vec<_>>(), tp),
                 };
             if captured {
                 self.target_captured[j] = true;
