@@ -5,11 +5,11 @@ from typing import Any
 __version__: str
 
 def default_params() -> dict[str, Any]:
-    """The documented scenario's parameters (``capture.count`` resolved)."""
+    """The documented scenario's parameters (``capture.count`` null: derived as ⌈0.8 N⌉)."""
 
-def validate_params(params: dict[str, Any] | None) -> dict[str, Any]:
-    """Validates a params dict and returns it complete and resolved; raises ValueError naming
-    the offending key."""
+def validate_params(params: dict[str, Any] | None, resolve: bool = False) -> dict[str, Any]:
+    """Validates a params dict and returns it complete; with ``resolve``, derived values
+    (``capture.count``) are filled in. Raises ValueError naming the offending key."""
 
 def check_layout(params: dict[str, Any] | None, layout: dict[str, Any], seed: int = 0) -> dict[str, Any]:
     """Builds the world a layout describes (raising ValueError if it is malformed or

@@ -9,8 +9,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
-use pythonize::{pythonize, Depythonizer};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pythonize::pythonize;
 use wolfpack_core::episode::{run_episodes as core_run_episodes, EpisodeResult, Trajectory};
 use wolfpack_core::world::{Layout, World};
 use wolfpack_core::{Error, Params};
@@ -38,8 +38,72 @@ fn params_from(obj: &Bound<'_, PyAny>) -> PyResult<Params> {
     if !obj.is_instance_of::<PyDict>() {
         return Err(PyValueError::new_err(format!("params must be a dict, got {}", obj.get_type().name()?)));
     }
-    let mut de = Depythonizer::from_object(obj);
-    Params::from_deserializer(&mut de).map_err(value_error)
+    Params::from_deserializer(plain_value(obj)?).map_err(value_error)
+}
+
+/// A Python value tree as plain JSON-like data, so that serde sees Python's own types (a
+/// `bool` is not an integer here, as it would be through a generic converter). Values JSON
+/// cannot hold are rejected with their key path: integers beyond 64 bits, NaN and ±inf.
+fn plain_value(obj: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
+    to_plain(obj, &mut String::new())
+}
+
+fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String) -> PyResult<serde_json::Value> {
+    use serde_json::Value;
+    let at = |path: &str| if path.is_empty() { "params".to_string() } else { path.to_string() };
+    if obj.is_none() {
+        Ok(Value::Null)
+    } else if let Ok(b) = obj.cast::<PyBool>() {
+        Ok(Value::Bool(b.is_true()))
+    } else if obj.is_instance_of::<PyInt>() {
+        if let Ok(i) = obj.extract::<i64>() {
+            Ok(Value::from(i))
+        } else if let Ok(u) = obj.extract::<u64>() {
+            Ok(Value::from(u))
+        } else {
+            Err(PyValueError::new_err(format!("{}: integer {} is out of range", at(path), obj.str()?)))
+        }
+    } else if let Ok(f) = obj.cast::<PyFloat>() {
+        let x = f.value();
+        serde_json::Number::from_f64(x)
+            .map(Value::Number)
+            .ok_or_else(|| PyValueError::new_err(format!("{}: must be finite, got {x}", at(path))))
+    } else if let Ok(s) = obj.cast::<PyString>() {
+        Ok(Value::String(s.to_str()?.to_owned()))
+    } else if let Ok(d) = obj.cast::<PyDict>() {
+        let mut map = serde_json::Map::new();
+        for (k, v) in d.iter() {
+            let key: String = k.extract().map_err(|_| PyValueError::new_err(format!("{}: keys must be strings, got {}", at(path), k.repr().map(|r| r.to_string()).unwrap_or_default())))?;
+            let len = path.len();
+            if !path.is_empty() {
+                path.push('.');
+            }
+            path.push_str(&key);
+            let value = to_plain(&v, path)?;
+            path.truncate(len);
+            map.insert(key, value);
+        }
+        Ok(Value::Object(map))
+    } else if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
+        let mut items = Vec::new();
+        for (i, v) in obj.try_iter()?.enumerate() {
+            let len = path.len();
+            path.push_str(&format!("[{i}]"));
+            items.push(to_plain(&v?, path)?);
+            path.truncate(len);
+        }
+        Ok(Value::Array(items))
+    } else if let Ok(i) = obj.extract::<i64>() {
+        // numpy integer scalars (they implement __index__).
+        Ok(Value::from(i))
+    } else if let Ok(x) = obj.extract::<f64>() {
+        // Other number-likes.
+        serde_json::Number::from_f64(x)
+            .map(Value::Number)
+            .ok_or_else(|| PyValueError::new_err(format!("{}: must be finite, got {x}", at(path))))
+    } else {
+        Err(PyValueError::new_err(format!("{}: unsupported value of type {}", at(path), obj.get_type().name()?)))
+    }
 }
 
 fn layout_from(obj: &Bound<'_, PyAny>) -> PyResult<Option<Layout>> {
@@ -49,29 +113,31 @@ fn layout_from(obj: &Bound<'_, PyAny>) -> PyResult<Option<Layout>> {
     if !obj.is_instance_of::<PyDict>() {
         return Err(PyValueError::new_err(format!("layout must be a dict, got {}", obj.get_type().name()?)));
     }
-    let mut de = Depythonizer::from_object(obj);
-    serde_path_to_error::deserialize(&mut de).map(Some).map_err(|e| {
+    serde_path_to_error::deserialize(plain_value(obj)?).map(Some).map_err(|e| {
         let path = e.path().to_string();
         PyValueError::new_err(format!("layout: {path}: {}", e.into_inner()))
     })
 }
 
 fn params_to_py<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyAny>> {
-    pythonize(py, &p.resolved()).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    pythonize(py, p).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
-/// The documented scenario's parameters as a dict (`capture.count` resolved).
+/// The documented scenario's parameters as a dict (`capture.count` null: derived as ⌈0.8 N⌉).
 #[pyfunction]
 fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
     params_to_py(py, &Params::default())
 }
 
-/// Validates a params dict; returns the complete, resolved dict. Raises ValueError naming the
-/// offending key.
+/// Validates a params dict; returns it complete (every key, defaults filled in). With
+/// `resolve`, derived values are filled in too (`capture.count`), as tools show them; without,
+/// a derived value stays null so that it follows later changes of the agent counts (layouts).
+/// Raises ValueError naming the offending key.
 #[pyfunction]
-fn validate_params<'py>(py: Python<'py>, params: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+#[pyo3(signature = (params, resolve=false))]
+fn validate_params<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, resolve: bool) -> PyResult<Bound<'py, PyAny>> {
     let p = params_from(params)?;
-    params_to_py(py, &p)
+    params_to_py(py, &if resolve { p.resolved() } else { p })
 }
 
 /// Checks a layout against params by building the world it describes; returns the resolved
@@ -82,7 +148,7 @@ fn check_layout<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, layout: &Bound
     let p = std::sync::Arc::new(params_from(params)?);
     let l = layout_from(layout)?.ok_or_else(|| PyValueError::new_err("layout: must be a dict, got None"))?;
     let w = guarded(|| World::from_layout(p, seed, &l))?.map_err(value_error)?;
-    params_to_py(py, &w.params)
+    params_to_py(py, &w.params.resolved())
 }
 
 fn array<'py, T: numpy::Element>(py: Python<'py>, data: Vec<T>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {

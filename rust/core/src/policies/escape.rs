@@ -1,9 +1,235 @@
-//! SPEC §5 — being written.
-use super::{Command, Snapshot, TargetMemory};
+//! SPEC §5 — the scripted target laws `escape` and `random` (`still` is v = ω = 0 and is
+//! handled by the world).
+//!
+//! `escape`:
+//! - before the target has ever sensed a wolf: wander, v ~ U(0, wander_speed),
+//!   θ_d = wrap(θ + U(−wander_turn, wander_turn));
+//! - from its first sighting t_seen on: if wolves are sensed now (within
+//!   `agents.target.sense_radius`), θ_d = direction of Σ (p_0 − p_j) over them
+//!   (un-normalised: nearer wolves do not weigh more, the sum just points away from the pack)
+//!   and v_d = the fatigue curve `escape.fatigue_speed(t_seen, t)`; if none is sensed now, keep
+//!   the heading and scale the current speed by the curve's ratio between t and t − 1;
+//!
+//! then avoidance (SPEC §4, target variant) and the saturator (SPEC §2). `random` is the
+//! wander rule forever, then the same avoidance and saturator.
+//!
+//! Choices where SPEC is silent:
+//! - Random numbers are drawn in a fixed order, speed first, then turn, two per wander step,
+//!   as `u·wander_speed` and `(2u − 1)·wander_turn` with u ~ U[0, 1) — no range is ever
+//!   empty, so a zero `wander_speed` or `wander_turn` cannot panic.
+//! - "The current speed" is the speed the target executed in the last step (`AgentState::v`,
+//!   after the world's feasibility filter).
+//! - Sensed wolves whose sum Σ (p_0 − p_j) vanishes (a perfectly symmetric ring, or wolves on
+//!   the target) give no direction: the target keeps its heading, still at the curve's speed.
+
 use rand::Rng;
-pub fn escape_command<R: Rng>(_j: usize, _snap: &Snapshot, _mem: &mut TargetMemory, _rng: &mut R) -> Command {
-    unimplemented!("escape law")
+
+use super::avoidance;
+use super::saturator::saturate;
+use super::{Command, Snapshot, TargetMemory};
+use crate::config::EscapeParams;
+use crate::math::{angle_of, wrap, Vec2};
+
+/// The `escape` law for target `j`.
+pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> Command {
+    let (v_d, theta_d) = match snap.target_seen_at[j] {
+        None => wander(snap.targets[j].theta, &snap.params.escape, rng),
+        Some(t_seen) => flee(j, snap, t_seen),
+    };
+    finish(j, snap, mem, v_d, theta_d)
 }
-pub fn random_command<R: Rng>(_j: usize, _snap: &Snapshot, _mem: &mut TargetMemory, _rng: &mut R) -> Command {
-    unimplemented!("random law")
+
+/// The `random` law for target `j`: the wander rule forever.
+pub fn random_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> Command {
+    let (v_d, theta_d) = wander(snap.targets[j].theta, &snap.params.escape, rng);
+    finish(j, snap, mem, v_d, theta_d)
+}
+
+/// Avoidance (target variant) and the saturator with the target's limits.
+fn finish(j: usize, snap: &Snapshot, mem: &mut TargetMemory, v_d: f64, theta_d: f64) -> Command {
+    let p = snap.params;
+    let (v_d, theta_d) = avoidance::target(j, snap, v_d, theta_d, &mut mem.danger);
+    let side = &p.agents.target;
+    saturate(v_d, theta_d, snap.targets[j].theta, side.v_max, side.omega_max, p.world.ts)
+}
+
+/// The wander rule: (v ~ U(0, wander_speed), θ_d = wrap(θ + U(−wander_turn, wander_turn))).
+/// Draws exactly two numbers, speed first.
+pub fn wander<R: Rng>(theta: f64, e: &EscapeParams, rng: &mut R) -> (f64, f64) {
+    let u_speed: f64 = rng.random();
+    let u_turn: f64 = rng.random();
+    (u_speed * e.wander_speed, wrap(theta + (2.0 * u_turn - 1.0) * e.wander_turn))
+}
+
+/// After the first sighting: flee the wolves sensed now at the fatigue speed, or coast.
+pub fn flee(j: usize, snap: &Snapshot, t_seen: u32) -> (f64, f64) {
+    let p = snap.params;
+    let me = snap.targets[j];
+    let r = p.agents.target.sense_radius;
+    let mut away = Vec2::zeros();
+    let mut sensed = false;
+    for w in snap.wolves {
+        let d = me.pos - w.pos;
+        if d.norm() <= r {
+            away += d;
+            sensed = true;
+        }
+    }
+    if sensed {
+        let theta_d = if away == Vec2::zeros() { me.theta } else { angle_of(away) };
+        return (p.escape.fatigue_speed(t_seen, snap.t), theta_d);
+    }
+    // None sensed now: keep heading; the speed follows the curve's relative decay. The curve
+    // is positive everywhere (fatigue_base > 0, the bracket lies in (1, 2)), so the ratio is
+    // finite. At t = 0 there is no previous step: ratio 1.
+    let prev = snap.t.saturating_sub(1);
+    let ratio = p.escape.fatigue_speed(t_seen, snap.t) / p.escape.fatigue_speed(t_seen, prev);
+    (me.v * ratio, me.theta)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Params;
+    use crate::math::{PI, TAU};
+    use crate::world::{AgentState, Obstacle};
+    use rand::RngCore;
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-9
+    }
+
+    /// Returns the given fractions of 2⁶⁴ in turn: `random::<f64>()` takes the top 53 bits,
+    /// so 0.5 and 0.75 come back exactly.
+    struct Fixed(Vec<f64>, usize);
+
+    impl RngCore for Fixed {
+        fn next_u32(&mut self) -> u32 {
+            (self.next_u64() >> 32) as u32
+        }
+        fn next_u64(&mut self) -> u64 {
+            let x = self.0[self.1 % self.0.len()];
+            self.1 += 1;
+            (x * 2f64.powi(64)) as u64
+        }
+        fn fill_bytes(&mut self, dst: &mut [u8]) {
+            for b in dst {
+                *b = self.next_u32() as u8;
+            }
+        }
+    }
+
+    struct World {
+        params: Params,
+        wolves: Vec<AgentState>,
+        targets: Vec<AgentState>,
+        obstacles: Vec<Obstacle>,
+        wolf_target: Vec<usize>,
+        wolf_senses: Vec<bool>,
+        seen: Vec<Option<u32>>,
+        captured: Vec<bool>,
+        t: u32,
+    }
+
+    impl World {
+        fn new(wolves: &[(f64, f64)], target: AgentState, seen: Option<u32>, t: u32) -> Self {
+            let wolves: Vec<AgentState> = wolves.iter().map(|&(x, y)| AgentState::at(x, y, 0.0)).collect();
+            let n = wolves.len();
+            Self { params: Params::default(), wolves, targets: vec![target], obstacles: vec![], wolf_target: vec![0; n], wolf_senses: vec![false; n], seen: vec![seen], captured: vec![false], t }
+        }
+        fn snap(&self) -> Snapshot<'_> {
+            Snapshot {
+                params: &self.params,
+                t: self.t,
+                wolves: &self.wolves,
+                targets: &self.targets,
+                obstacles: &self.obstacles,
+                wolf_target: &self.wolf_target,
+                wolf_senses: &self.wolf_senses,
+                target_seen_at: &self.seen,
+                target_captured: &self.captured,
+            }
+        }
+    }
+
+    #[test]
+    fn wander_draws_speed_then_turn() {
+        // u = 0.5 → v = 0.75; u = 0.75 → turn (2·0.75 − 1)·π/6 = π/12.
+        let (v, th) = wander(0.0, &EscapeParams::default(), &mut Fixed(vec![0.5, 0.75], 0));
+        assert!(close(v, 0.75) && close(th, PI / 12.0), "({v}, {th})");
+        // u = 0 for the turn → −π/6, wrapped.
+        let (_, th) = wander(0.1, &EscapeParams::default(), &mut Fixed(vec![0.5, 0.0], 0));
+        assert!(close(th, TAU + 0.1 - PI / 6.0), "{th}");
+    }
+
+    #[test]
+    fn escape_wanders_before_the_first_sighting() {
+        // Never seen: θ_d = π/12, v_d = 0.75 → saturator: e = 2π − π/12 ≥ 2π − 0.7 →
+        // ω = (π/12)/0.1 = 2.61799, v = 0.75·(1 − 1/12) = 0.6875.
+        let w = World::new(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), None, 7);
+        let mut rng = Fixed(vec![0.5, 0.75], 0);
+        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut rng);
+        assert!(close(c.omega, PI / 12.0 / 0.1) && close(c.v, 0.6875), "{c:?}");
+        assert_eq!(rng.1, 2, "two draws");
+        // `random` wanders the same way even once seen.
+        let w = World::new(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7);
+        let c = random_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.5, 0.75], 0));
+        assert!(close(c.omega, PI / 12.0 / 0.1) && close(c.v, 0.6875), "{c:?}");
+    }
+
+    #[test]
+    fn escape_flees_the_sum_of_sensed_wolves() {
+        // Wolves at (−1, 0) and (0, −2) are sensed (≤ 3), (5, 0) is not. Σ (p_0 − p_j) =
+        // (1, 0) + (0, 2) = (1, 2) → θ_d = atan2(2, 1) = 1.10715. Seen at 0, now t = 10:
+        // curve 0.9·(2 − 1/(1 + e^{22.5})) = 1.8 → capped 1.5. Heading 0: e = 2π − 1.10715 ∈
+        // (π, 2π − 0.7) → ω = +7, v = 1.5·(1 − 1.10715/π) = 0.971375.
+        let w = World::new(&[(-1.0, 0.0), (0.0, -2.0), (5.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 10);
+        let (v, th) = flee(0, &w.snap(), 0);
+        assert!((v - 1.8).abs() < 1e-9 && close(th, 2f64.atan2(1.0)), "({v}, {th})");
+        let mut rng = Fixed(vec![0.9], 0);
+        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut rng);
+        assert!(close(c.omega, 7.0) && (c.v - 0.9713754).abs() < 1e-6, "{c:?}");
+        assert_eq!(rng.1, 0, "no draws once seen");
+    }
+
+    #[test]
+    fn fatigue_curve_sets_the_flight_speed() {
+        // One wolf behind at (−1, 0), heading 0 = θ_d: no turn. Seen at 0, t = 120:
+        // 0.9·(2 − 1/(1 + e^{−5})) = 0.906024.
+        let w = World::new(&[(-1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 120);
+        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
+        assert!((c.v - 0.9060236).abs() < 1e-6 && close(c.omega, 0.0), "{c:?}");
+    }
+
+    #[test]
+    fn none_sensed_now_keeps_heading_and_scales_speed() {
+        // Seen at 5, t = 110, last speed 1.0, heading 0.3, wolves out of range:
+        // ratio f(110)/f(109) = 1.1004301/1.1420473 = 0.9635592 → v = 0.9635592, θ_d = 0.3.
+        let mut a = AgentState::at(0.0, 0.0, 0.3);
+        a.v = 1.0;
+        let w = World::new(&[(-4.0, 0.0)], a, Some(5), 110);
+        let (v, th) = flee(0, &w.snap(), 5);
+        assert!((v - 0.9635592).abs() < 1e-6 && close(th, 0.3), "({v}, {th})");
+        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
+        assert!((c.v - 0.9635592).abs() < 1e-6 && c.omega == 0.0, "{c:?}");
+    }
+
+    #[test]
+    fn symmetric_wolves_keep_the_heading() {
+        let w = World::new(&[(-1.0, 0.0), (1.0, 0.0)], AgentState::at(0.0, 0.0, 2.0), Some(0), 3);
+        let (_, th) = flee(0, &w.snap(), 0);
+        assert_eq!(th, 2.0);
+    }
+
+    #[test]
+    fn escape_then_avoids() {
+        // Fleeing straight into a moving circle at (1.5, 0), r = 0.5 (d = 1.0): θ_d = 0, the
+        // heading 0.05 lies inside (−0.6797, 0.6797) (κ = 2.0, Δ = asin(1/3)), nearer the
+        // upper edge → θ_d = 0.6897; e = 2π − 0.6397 ≥ 2π − 0.7 → ω = 6.397.
+        let mut w = World::new(&[(-1.0, 0.0)], AgentState::at(0.0, 0.0, 0.05), Some(0), 200);
+        w.obstacles.push(Obstacle::circle(Vec2::new(1.5, 0.0), 0.5, true));
+        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
+        let edge = 2.0 * (1.0f64 / 3.0).asin() + 0.01;
+        assert!(close(c.omega, (edge - 0.05) / 0.1), "{c:?}");
+    }
 }

@@ -1,0 +1,367 @@
+"""The ``wolfpack`` command line: ``wolfpack hunt`` (scripted episodes, logs, plots) and
+``wolfpack bench`` (throughput of scripted stepping). ``wolfpack hunt --help`` explains it all.
+
+Every failure is one line on stderr and an exit status, never a traceback:
+
+====== ==========================================================================================
+status cause
+====== ==========================================================================================
+2      bad input: params, overrides, layouts, an infeasible spawn, arguments —
+       ``wolfpack: error: world.ts: must be a finite number > 0, got 0``
+1      the file system (``--out`` not writable, disk full)
+3      a bug in the core (a panic caught at the binding) — ``wolfpack: internal error ...``
+130    interrupted (Ctrl-C)
+====== ==========================================================================================
+
+Nothing is printed on stdout and no ``summary.json`` exists unless the run completed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from wolfpack import _core, config, logs
+from wolfpack.episodes import run_episodes, summarize
+
+PROG = "wolfpack"
+EXIT_INPUT, EXIT_INTERNAL, EXIT_IO, EXIT_INTERRUPTED = 2, 3, 1, 130
+
+JSON_KEYS = ("episodes", "capture_rate", "collision_rate", "timeout_rate", "median_capture_steps", "mean_energy", "env_steps_per_second")
+
+HUNT_DESCRIPTION = """\
+Run scripted episodes of the wolf-pack hunt and report how they ended.
+
+The scenario (params.yaml, SPEC.md §1): N unicycle wolves hunt M targets in a rectangular
+arena with static and moving circles and rotating, drifting irregular polygons. Default: a
+20 m x 20 m arena, Ts = 0.1 s, at most 300 steps, 5 wolves, 1 target, 12 obstacles. Each
+episode ends as
+  captured   every target has capture.count wolves (default 4) within capture.distance (0.8 m)
+  collision  a wolf touched an obstacle or another wolf
+  timeout    world.max_steps steps passed.
+Episode k uses seed S + k and its own random generator: results do not depend on --threads,
+and episode k of a run with seed S equals episode 0 of a run with seed S + k.
+
+Output on stdout: a short table, or with --json one JSON object with the keys
+  episodes, capture_rate, collision_rate, timeout_rate, median_capture_steps (over captured
+  episodes; null if none), mean_energy (J, total of sum 1/2 m v^2 over all agents per
+  episode), env_steps_per_second (simulated steps / wall time spent simulating), total_steps.
+
+With --out DIR (created after the input has been checked):
+  DIR/summary.json                    the --json summary plus params (resolved), seed, command,
+                                      and episodes_detail (per episode: seed, outcome, steps,
+                                      capture_step, energy and collisions per agent); written
+                                      last, so a failed run never leaves one behind
+  DIR/summary.png                     outcome counts and the histogram of capture steps
+  DIR/episode_KKK/trajectory.npz      float64 wolves [T+1,N,5] and targets [T+1,M,5]
+                                      (x, y, theta, v, omega; row 0 = initial state, row t =
+                                      after step t), energy [T+1,N+M] (accumulated), uint8
+                                      interaction [T,N+M,N+M], outcome, capture_step (-1: none),
+                                      seed, obstacle_poses [T+1,K,3], obstacle_kind,
+                                      obstacle_radius, obstacle_vertices [K,V,2] (NaN-padded,
+                                      relative to the centre at angle 0), border, ts,
+                                      capture_distance
+  DIR/episode_KKK/trajectory.png      (first --plots episodes) arena, obstacles at their
+                                      initial (light) and final pose, paths, capture ring
+  DIR/episode_KKK/curves.png          (first --plots episodes) speed, wolf-target distance
+                                      and energy over time
+
+Invalid input (unknown key, wrong type, value out of range, an infeasible layout or spawn)
+exits with status 2 and one line on stderr naming the problem."""
+
+HUNT_EPILOG = """\
+examples:
+  wolfpack hunt --episodes 20 --json
+  wolfpack hunt --episodes 200 --seed 7 --out runs/hunt --plots 5
+  wolfpack hunt --targets still --set world.wolves=8 --set capture.count=6
+  wolfpack hunt --params my_scenario.yaml --layout start.json --episodes 10 --out runs/layout
+
+layout file (JSON; vertices in world coordinates):
+  {"wolves":  [[x, y, theta], ...], "targets": [[x, y, theta], ...],
+   "obstacles": [{"kind": "circle", "center": [x, y], "radius": r, "moving": false},
+                 {"kind": "polygon", "center": [x, y], "vertices": [[x, y], ...],
+                  "moving": true}]}"""
+
+BENCH_DESCRIPTION = """\
+Throughput of scripted stepping: runs K episodes of the documented scenario (params.yaml:
+5 seed000 wolves vs 1 escape target, 12 obstacles, at most 300 steps) with threads = 1 and
+with all cores (or --threads T), and reports env-steps/s and episodes/s of each. Nothing is
+recorded or written. The native RL batch (wolfpack.BatchEnv) arrives with a later issue and
+will be benchmarked here then."""
+
+BENCH_EPILOG = """\
+examples:
+  wolfpack bench
+  wolfpack bench --episodes 200 --json"""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line on stderr (like every other error here)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(EXIT_INPUT, f"{PROG}: error: {self.prog.removeprefix(PROG).strip() or 'usage'}: {message} (see --help)\n")
+
+
+def _int_at_least(lo: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"must be >= {lo}, got {value}")
+        return value
+
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog=PROG,
+        description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="run 'wolfpack hunt --help' or 'wolfpack bench --help' for details.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,bench}", parser_class=_Parser)
+
+    hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
+                          description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    hunt.add_argument("--params", metavar="P", help="scenario YAML (default: the packaged params.yaml); missing keys take their defaults")
+    hunt.add_argument("--wolves", choices=("seed000", "bvc", "formation"), help="wolf law; sets policies.wolves (wins over --set)")
+    hunt.add_argument("--targets", choices=("escape", "random", "still"), help="target law; sets policies.targets (wins over --set)")
+    hunt.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=20, help="number of episodes (default: 20)")
+    hunt.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="episode k uses seed S + k (default: 0)")
+    hunt.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                      help="override a parameter by its dotted key, value read as YAML, e.g. --set world.wolves=8 "
+                           "--set world.border=[-5,-5,5,5]; repeatable")
+    hunt.add_argument("--layout", metavar="FILE", help="start every episode from this explicit state (JSON, schema below); "
+                                                       "agent counts come from the layout")
+    hunt.add_argument("--out", metavar="DIR", help="write summary.json, per-episode trajectory.npz and plots under DIR")
+    hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
+                      help="with --out, draw trajectory.png and curves.png for the first N episodes only (default: 20; "
+                           "0: none); summary.png and every trajectory.npz are always written")
+    hunt.add_argument("--json", action="store_true", help="print one JSON object (the summary) on stdout instead of a table")
+    hunt.add_argument("--threads", metavar="T", type=_int_at_least(1), default=None, help="worker threads (default: all cores); results do not depend on it")
+    hunt.set_defaults(func=cmd_hunt)
+
+    bench = sub.add_parser("bench", help="throughput of scripted stepping (env-steps/s)",
+                           description=BENCH_DESCRIPTION, epilog=BENCH_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    bench.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=64, help="episodes per measurement (default: 64)")
+    bench.add_argument("--threads", metavar="T", type=_int_at_least(1), default=None, help="the parallel measurement's thread count (default: all cores)")
+    bench.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="first episode seed (default: 0)")
+    bench.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
+    bench.set_defaults(func=cmd_bench)
+    return parser
+
+
+# --- the scenario -------------------------------------------------------------------------
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """``--set`` pairs in order, then ``--wolves`` / ``--targets`` (which win)."""
+    overrides = dict(config.parse_override(text) for text in args.overrides)
+    if args.wolves:
+        overrides["policies.wolves"] = args.wolves
+    if args.targets:
+        overrides["policies.targets"] = args.targets
+    return overrides
+
+
+def resolve_scenario(args: argparse.Namespace) -> tuple[dict, dict, dict | None]:
+    """Reads and validates everything the run needs before anything is written.
+
+    Returns ``(params, resolved, layout)``: the params to run with, the complete resolved params
+    of the episodes (with a layout: its agent counts), and the layout or ``None``. Raises
+    ValueError naming the problem.
+    """
+    overrides = _overrides(args)
+    params = config.load_params(args.params, overrides)
+    if args.layout is None:
+        return params, _core.validate_params(params, resolve=True), None
+    layout = config.load_layout(args.layout)
+    resolved = _core.check_layout(params, layout, args.seed)
+    return params, resolved, layout
+
+
+# --- hunt ---------------------------------------------------------------------------------
+
+
+class RunWriter:
+    """Writes ``--out DIR`` as episodes arrive (so a long run never holds every trajectory in
+    memory). Create it once the input is valid: it removes an earlier run's ``DIR/summary.json``
+    at once, so that the summary cannot outlive a failure of this run (an infeasible spawn is
+    only found while running). DIR itself is created at the first episode, after the first batch
+    was simulated; ``summary.json`` is written last, by :meth:`finish`."""
+
+    def __init__(self, out: Path, resolved: dict, plots: int):
+        # Imported here: matplotlib is slow to import and only needed with --out.
+        from wolfpack import plots as plotting
+
+        self.plotting = plotting
+        self.out, self.resolved, self.plots = out, resolved, plots
+        (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
+
+    def episode(self, k: int, result: dict) -> None:
+        """Writes ``episode_{k:03d}/trajectory.npz`` and, for k < plots, its two plots."""
+        self.out.mkdir(parents=True, exist_ok=True)
+        folder = logs.episode_dir(self.out, k)
+        folder.mkdir(exist_ok=True)
+        arrays = logs.trajectory_arrays(result, self.resolved)
+        logs.write_trajectory(folder / "trajectory.npz", arrays)
+        if k < self.plots:
+            self.plotting.plot_trajectory(arrays, folder / "trajectory.png", label=f"episode {k}")
+            self.plotting.plot_curves(arrays, folder / "curves.png", label=f"episode {k}")
+
+    def finish(self, summary: dict) -> None:
+        self.plotting.plot_summary(summary["episodes_detail"], self.out / "summary.png")
+        logs.write_json_atomic(self.out / logs.SUMMARY_NAME, summary)
+
+
+def _cores() -> int:
+    """Cores this process may use (what the core's thread pool uses by default)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _chunk_size(episodes: int, threads: int | None, streaming: bool) -> int:
+    """Episodes per native call: all at once unless results are shown or written as they come;
+    then a few per thread, which keeps every core busy and memory bounded."""
+    if not streaming:
+        return episodes
+    return max(1, min(episodes, 8 * (threads or _cores())))
+
+
+def simulate(args, params, layout, on_result: Callable[[int, dict], None]) -> tuple[list[dict], float]:
+    """Runs the episodes in chunks; calls ``on_result(k, result)`` for each, in order. Returns
+    the results (without trajectories) and the wall time spent inside the simulator."""
+    from tqdm import tqdm
+
+    record = args.out is not None
+    show = sys.stderr.isatty()
+    chunk = _chunk_size(args.episodes, args.threads, record or show)
+    results: list[dict] = []
+    seconds = 0.0
+    with tqdm(total=args.episodes, unit="ep", file=sys.stderr, disable=not show, leave=False) as bar:
+        for first in range(0, args.episodes, chunk):
+            count = min(chunk, args.episodes - first)
+            t0 = time.perf_counter()
+            # Episode k depends only on its seed S + k, so a chunk starting at `first` is a run
+            # with seed S + first.
+            batch = run_episodes(params, count, args.seed + first, layout=layout, record=record, threads=args.threads)
+            seconds += time.perf_counter() - t0
+            for i, result in enumerate(batch):
+                on_result(first + i, result)
+                result.pop("trajectory", None)
+                results.append(result)
+            bar.update(count)
+    return results, seconds
+
+
+def _table(summary: dict, args, resolved: dict) -> str:
+    n = summary["episodes"]
+    pol = resolved["policies"]
+    w = resolved["world"]
+    lines = [
+        f"{n} episodes, seeds {args.seed}..{args.seed + n - 1}: {w['wolves']} {pol['wolves']} wolves vs "
+        f"{w['targets']} {pol['targets']} target(s), at most {w['max_steps']} steps",
+    ]
+    for key in ("captured", "collision", "timeout"):
+        rate = summary[f"{'capture' if key == 'captured' else key}_rate"]
+        lines.append(f"  {key:<22} {round(rate * n):>6}  ({100 * rate:.1f}%)")
+    median = summary["median_capture_steps"]
+    lines.append(f"  {'median capture steps':<22} {'-' if median is None else f'{median:g}':>6}")
+    lines.append(f"  {'mean energy (J)':<22} {summary['mean_energy']:>10.2f}")
+    lines.append(f"  {'env steps per second':<22} {summary['env_steps_per_second'] or 0:>10.0f}")
+    if args.out:
+        lines.append(f"wrote {args.out}/summary.json, summary.png and episode_*/ (trajectory.npz; plots for the first {min(args.plots, n)})")
+    return "\n".join(lines)
+
+
+def _check_seed_range(seed: int, episodes: int) -> None:
+    """Episode seeds S + k are unsigned 64-bit integers."""
+    if seed + episodes - 1 >= 2**64:
+        raise ValueError(f"--seed: seed + episodes - 1 must be < 2**64, got {seed} + {episodes} - 1")
+
+
+def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
+    _check_seed_range(args.seed, args.episodes)
+    params, resolved, layout = resolve_scenario(args)
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out}: exists and is not a directory")
+    writer = RunWriter(out, resolved, args.plots) if out is not None else None
+    results, seconds = simulate(args, params, layout, writer.episode if writer else lambda k, r: None)
+    summary = summarize(results, seconds)
+    if writer is not None:
+        writer.finish({**summary, "params": resolved, "seed": args.seed, "layout": layout,
+                       "command": [PROG, *argv], "episodes_detail": [logs.episode_detail(r) for r in results]})
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(_table(summary, args, resolved))
+
+
+# --- bench --------------------------------------------------------------------------------
+
+
+def cmd_bench(args: argparse.Namespace, argv: Sequence[str]) -> None:
+    _check_seed_range(args.seed, args.episodes)
+    params = _core.default_params()
+    run_episodes(params, 1, args.seed, threads=1)  # warm-up: page in the code, start a pool
+    rows = []
+    for threads in dict.fromkeys((1, args.threads or _cores())):
+        t0 = time.perf_counter()
+        results = run_episodes(params, args.episodes, args.seed, threads=threads)
+        seconds = time.perf_counter() - t0
+        steps = sum(int(r["steps"]) for r in results)
+        rows.append({"threads": threads, "episodes": args.episodes, "env_steps": steps, "seconds": seconds,
+                     "env_steps_per_second": steps / seconds, "episodes_per_second": args.episodes / seconds})
+    report = {"scenario": "documented (params.yaml)", "what": "scripted episodes, nothing recorded", "runs": rows}
+    if args.json:
+        print(json.dumps(report))
+        return
+    print(f"scripted stepping, documented scenario, {args.episodes} episodes per run")
+    print(f"  {'threads':>7}  {'env-steps/s':>12}  {'episodes/s':>10}  {'seconds':>8}")
+    for r in rows:
+        print(f"  {r['threads']:>7}  {r['env_steps_per_second']:>12.0f}  {r['episodes_per_second']:>10.1f}  {r['seconds']:>8.2f}")
+
+
+# --- entry point --------------------------------------------------------------------------
+
+
+def _one_line(err: BaseException) -> str:
+    return " ".join(str(err).split()) or type(err).__name__
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Entry point of the ``wolfpack`` script; exits with 0 on success."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    try:
+        args.func(args, argv)
+    except ValueError as e:
+        sys.exit(_fail(EXIT_INPUT, f"error: {_one_line(e)}"))
+    except RuntimeError as e:
+        message = _one_line(e)
+        sys.exit(_fail(EXIT_INTERNAL, message if message.startswith("internal error") else f"internal error: {message}"))
+    except OSError as e:
+        where = f" {e.filename}" if e.filename else ""
+        sys.exit(_fail(EXIT_IO, f"error:{where}: {e.strerror or _one_line(e)}"))
+    except KeyboardInterrupt:
+        sys.exit(_fail(EXIT_INTERRUPTED, "interrupted"))
+
+
+def _fail(status: int, message: str) -> int:
+    sys.stderr.write(f"{PROG}: {message}\n")
+    return status
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,145 @@
+"""Plots of ``wolfpack hunt --out DIR`` (matplotlib, Agg; no display needed).
+
+Every function reads the arrays of ``trajectory.npz`` (see :mod:`wolfpack.logs`), so a saved run
+can be re-plotted later with :func:`wolfpack.logs.load_trajectory`. Figures are built with the
+object-oriented API (:class:`matplotlib.figure.Figure`) rather than pyplot: no global figure
+state to leak between episodes and no interactive backend to select.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from matplotlib.collections import PatchCollection
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Polygon, Rectangle
+
+OUTCOMES = ("captured", "collision", "timeout")
+_OUTCOME_COLOURS = {"captured": "tab:green", "collision": "tab:red", "timeout": "tab:gray"}
+_TARGET_COLOUR = "crimson"
+# Matplotlib's cycle without its red (C3), which is the target's colour.
+_WOLF_COLOURS = ("C0", "C1", "C2", "C4", "C5", "C6", "C7", "C8", "C9")
+_DPI = 100
+
+
+def obstacle_outline(kind: str, radius: float, local: np.ndarray, pose: np.ndarray):
+    """The patch of one obstacle at ``pose`` = (x, y, angle): a circle, or the polygon whose
+    world vertices are centre + R(angle) · local (``local`` may carry NaN padding rows)."""
+    centre = pose[:2]
+    if "circle" in kind:
+        return Circle(centre, radius)
+    verts = local[~np.isnan(local).any(axis=1)]
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    world = verts @ np.array([[c, s], [-s, c]]) + centre  # row-vector form of R(angle) · v
+    return Polygon(world, closed=True)
+
+
+def _obstacles(ax, a: Mapping[str, np.ndarray], row: int, **style) -> None:
+    patches = [
+        obstacle_outline(str(kind), float(r), local, pose)
+        for kind, r, local, pose in zip(a["obstacle_kind"], a["obstacle_radius"], a["obstacle_vertices"], a["obstacle_poses"][row])
+    ]
+    if patches:
+        ax.add_collection(PatchCollection(patches, **style))
+
+
+def _title(a: Mapping[str, np.ndarray], label: str) -> str:
+    outcome = str(a["outcome"])
+    steps = a["interaction"].shape[0]
+    cs = int(a["capture_step"])
+    when = f"captured at step {cs}" if outcome == "captured" else f"{outcome} after {steps} steps"
+    return f"{label}: {when} (seed {int(a['seed'])})"
+
+
+def plot_trajectory(a: Mapping[str, np.ndarray], path: Path, label: str = "episode") -> None:
+    """``trajectory.png``: arena border; obstacles at their initial pose (light) and final pose;
+    each wolf's path (o = start, ▲ = end) and the targets' paths; a ring of radius
+    ``capture_distance`` around each target's final position; title with outcome and steps."""
+    fig = Figure(figsize=(6.4, 6.4), dpi=_DPI)
+    ax = fig.add_subplot()
+    x0, y0, x1, y1 = a["border"]
+    ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="black", linewidth=1.5))
+    _obstacles(ax, a, 0, facecolor="0.85", edgecolor="0.7", linewidth=0.5, linestyle="--")
+    _obstacles(ax, a, -1, facecolor="0.45", edgecolor="0.2", linewidth=0.8, alpha=0.8)
+    colours = [_WOLF_COLOURS[i % len(_WOLF_COLOURS)] for i in range(a["wolves"].shape[1])]
+    for i, colour in enumerate(colours):
+        path_i = a["wolves"][:, i, :2]
+        ax.plot(path_i[:, 0], path_i[:, 1], color=colour, linewidth=1.0, label=f"wolf {i}")
+        ax.plot(*path_i[0], "o", color=colour, markersize=4)
+        ax.plot(*path_i[-1], "^", color=colour, markersize=6)
+    for j in range(a["targets"].shape[1]):
+        path_j = a["targets"][:, j, :2]
+        ax.plot(path_j[:, 0], path_j[:, 1], color=_TARGET_COLOUR, linewidth=1.6, label="target" if j == 0 else None)
+        ax.plot(*path_j[0], "o", color=_TARGET_COLOUR, markersize=5)
+        ax.plot(*path_j[-1], "*", color=_TARGET_COLOUR, markersize=10)
+        ax.add_patch(Circle(path_j[-1], float(a["capture_distance"]), fill=False, edgecolor=_TARGET_COLOUR, linestyle=":"))
+    margin = 0.05 * max(x1 - x0, y1 - y0)
+    ax.set_xlim(x0 - margin, x1 + margin)
+    ax.set_ylim(y0 - margin, y1 + margin)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(_title(a, label), fontsize=10)
+    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    fig.savefig(path)
+
+
+def wolf_target_distance(a: Mapping[str, np.ndarray]) -> np.ndarray:
+    """[T+1, N]: each wolf's distance to its nearest target (with one target: to the target)."""
+    diff = a["wolves"][:, :, None, :2] - a["targets"][:, None, :, :2]
+    return np.linalg.norm(diff, axis=-1).min(axis=2)
+
+
+def plot_curves(a: Mapping[str, np.ndarray], path: Path, label: str = "episode") -> None:
+    """``curves.png`` against time t·Ts (s): per-agent speed v; each wolf's distance to the
+    (nearest) target, with the capture distance dashed; per-agent accumulated energy."""
+    n, m = a["wolves"].shape[1], a["targets"].shape[1]
+    time = np.arange(a["wolves"].shape[0]) * float(a["ts"])
+    names = [f"wolf {i}" for i in range(n)] + [f"target {j}" if m > 1 else "target" for j in range(m)]
+    colours = [_WOLF_COLOURS[i % len(_WOLF_COLOURS)] for i in range(n)] + [_TARGET_COLOUR] * m
+    speeds = np.concatenate([a["wolves"][:, :, 3], a["targets"][:, :, 3]], axis=1)
+
+    fig = Figure(figsize=(7.0, 8.0), dpi=_DPI, layout="constrained")
+    ax_v, ax_d, ax_e = fig.subplots(3, 1, sharex=True)
+    for k, (name, colour) in enumerate(zip(names, colours)):
+        ax_v.plot(time, speeds[:, k], color=colour, linewidth=0.8, label=name)
+        ax_e.plot(time, a["energy"][:, k], color=colour, linewidth=0.8)
+    for i, d in enumerate(wolf_target_distance(a).T):
+        ax_d.plot(time, d, color=colours[i], linewidth=0.8)
+    ax_d.axhline(float(a["capture_distance"]), color="black", linestyle="--", linewidth=0.8, label="capture distance")
+    ax_v.set_ylabel("speed v (m/s)")
+    ax_d.set_ylabel("wolf–target distance (m)")
+    ax_e.set_ylabel("energy Σ ½mv² (J)")
+    ax_e.set_xlabel("time (s)")
+    ax_v.legend(loc="upper right", fontsize=7, ncol=3)
+    ax_d.legend(loc="upper right", fontsize=7)
+    ax_v.set_title(_title(a, label), fontsize=10)
+    fig.savefig(path)
+
+
+def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
+    """``summary.png``: counts of each outcome (bar chart) and the histogram of capture steps
+    over captured episodes. ``details`` are ``summary.json``'s ``episodes_detail`` entries."""
+    counts = Counter(d["outcome"] for d in details)
+    capture_steps = [d["capture_step"] for d in details if d["outcome"] == "captured"]
+
+    fig = Figure(figsize=(9.0, 3.6), dpi=_DPI, layout="constrained")
+    ax_bar, ax_hist = fig.subplots(1, 2)
+    bars = ax_bar.bar(OUTCOMES, [counts.get(o, 0) for o in OUTCOMES], color=[_OUTCOME_COLOURS[o] for o in OUTCOMES])
+    ax_bar.bar_label(bars)
+    ax_bar.margins(y=0.12)  # room for the labels above the bars
+    ax_bar.set_ylabel("episodes")
+    ax_bar.set_title(f"outcomes of {len(details)} episodes", fontsize=10)
+    if capture_steps:
+        ax_hist.hist(capture_steps, bins="auto", color=_OUTCOME_COLOURS["captured"])
+        ax_hist.axvline(float(np.median(capture_steps)), color="black", linestyle="--", label="median")
+        ax_hist.legend(fontsize=8)
+    else:
+        ax_hist.text(0.5, 0.5, "no captures", ha="center", va="center", transform=ax_hist.transAxes)
+    ax_hist.set_xlabel("capture step")
+    ax_hist.set_ylabel("episodes")
+    ax_hist.set_title("steps to capture", fontsize=10)
+    fig.savefig(path)

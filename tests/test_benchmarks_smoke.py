@@ -1,0 +1,55 @@
+"""Smoke test of benchmarks/peers.py: it runs and reports positive numbers. No timing thresholds:
+speed is measured by the benchmarks themselves (BENCHMARKS.md), never asserted in tests."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "peers.py"
+HAVE_MPE2 = importlib.util.find_spec("mpe2") is not None
+
+
+@pytest.fixture(scope="module")
+def report() -> dict:
+    if not SCRIPT.exists():
+        pytest.skip("benchmarks/peers.py is not part of this checkout")
+    skip = "vmas" if HAVE_MPE2 else "mpe2,vmas"
+    cmd = [sys.executable, str(SCRIPT), "--quick", "--json", "--episodes", "4", "--mpe2-steps", "50", "--skip", skip]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+def test_wolfpack_numbers_are_positive(report: dict) -> None:
+    for key in ("threads_1", "threads_all"):
+        r = report["wolfpack"][key]
+        assert r["episodes"] == 4
+        assert r["total_steps"] > 0
+        assert r["env_steps_per_second"] > 0
+        assert r["threads"] >= 1
+        assert sum(r["outcomes"].values()) == 4
+    assert report["wolfpack"]["threads_1"]["threads"] == 1
+
+
+def test_reference_figure_is_quoted(report: dict) -> None:
+    assert report["reference"]["env_steps_per_second"] == pytest.approx(42.0)
+    assert report["ratios"]["wolfpack(1 thread) / reference"] > 0
+
+
+def test_machine_info(report: dict) -> None:
+    m = report["machine"]
+    assert m["cores"] >= 1 and m["python"] and m["cpu"]
+
+
+@pytest.mark.skipif(not HAVE_MPE2, reason="mpe2 is not installed")
+def test_mpe2_numbers_are_positive(report: dict) -> None:
+    r = report["mpe2"]
+    assert "skipped" not in r, r
+    assert r["steps"] == 50 and r["env_steps_per_second"] > 0
+    assert report["ratios"]["wolfpack(1 thread) / mpe2"] > 0
