@@ -10,8 +10,9 @@ rust/core/src/world/step.rs.
 Readings taken where SPEC leaves room (each a plain choice, named so a disagreement can be traced
 to it; those in READINGS can be flipped, and the test pins the flipped ones as known failures):
 
-- §3 "nearest wolf that senses the target": a wolf j ≠ i within r_w of *wolf i's* target (not
-  "j senses its own target"; they differ only with M > 1).
+- §3 "nearest wolf that senses the target": a wolf j ≠ i within r_w of wolf i's target that also
+  hunts it (READINGS["follow_same_target_only"]; literally any wolf sensing it; they differ only
+  with M > 1).
 - §3 lost: ν₁ = lost_speed · (unit direction of the last non-zero ν₁), α still multiplies it;
   zero while no non-zero ν₁ was ever computed.
 - §3 a zero ν has no direction: θ_d := θ (READINGS["zero_velocity_keeps_heading"]).
@@ -24,7 +25,11 @@ to it; those in READINGS can be flipped, and the test pins the flipped ones as k
   closest member … static circles excepted", which literally includes partners' centre distance).
 - §4 emergency applies to targets too ("the agent"); a new trigger while in danger restarts the
   count with the new bisector; the remembered heading is bisector + π of the triggering step.
-- §4 early exits and "no items" return before the emergency memory is consulted.
+- §4 "in danger for this and the next 2 steps" counts world steps: a step skipped by an early exit
+  (or without items) still uses one of them up.
+- §4 normal mode at an exact tie (θ_d on the bisector, which happens whenever a wolf follows its
+  nearest partner j, j is a partner item and L ∥ ν₁): SPEC names no edge; `RefWorld.edge_tie`
+  decides (the comparison accepts the edge the Rust world took).
 - §5 "none sensed": θ_d := θ and v_d := v · f(t)/f(t−1) with v the speed executed last step.
 """
 
@@ -46,8 +51,6 @@ READINGS = {
     "zero_velocity_keeps_heading": True,
     # §3 (M > 1): the followed partner must also hunt wolf i's target (not merely sense it).
     "follow_same_target_only": True,
-    # §4 normal mode: θ_d at the bisector (|Δ lower − Δ upper| < 1e-9): "lower", "upper" or None (rounding decides)
-    "edge_tie": "upper",
 }
 
 PI = math.pi
@@ -158,19 +161,19 @@ def strictly_inside(arc: Arc, a: float) -> bool:
     return 0.0 < r < arc.width
 
 
-TIES = Counter()
+def edges_out(arc: Arc, margin: float) -> tuple[float, float]:
+    """Both edges of `arc`, pushed outward by `margin`: (lower − margin, upper + margin)."""
+    return wrap(arc.lo - margin), wrap(arc.lo + arc.width + margin)
 
 
-def nearer_edge_out(arc: Arc, a: float, margin: float) -> float:
-    """Nearer edge of `arc` to angle a, pushed outward by `margin` (§4 normal mode, eqs. 11–13)."""
+def nearer_edge_gap(arc: Arc, a: float) -> float:
+    """(distance of a to the lower edge) − (distance to the upper edge); < 0: lower is nearer."""
     r = wrap(a - arc.lo)
-    tie = READINGS["edge_tie"]
-    if tie is not None and abs(r - (arc.width - r)) < 1e-9:
-        TIES["tie"] += 1
-        return wrap(arc.lo - margin) if tie == "lower" else wrap(arc.lo + arc.width + margin)
-    if r < arc.width - r:
-        return wrap(arc.lo - margin)
-    return wrap(arc.lo + arc.width + margin)
+    return r - (arc.width - r)
+
+
+# |nearer_edge_gap| below this is an exact tie blurred by rounding: SPEC names no rule for it.
+EDGE_TIE = 1e-9
 
 
 def bisector(arc: Arc) -> float:
@@ -197,7 +200,7 @@ class Agent:
 @dataclass
 class Memory:
     attraction_dir: np.ndarray | None = None  # §3 lost mode
-    danger_left: int = 0  # §4 emergency: steps still in danger
+    danger_until: int = -1  # §4 emergency: last step of the current danger
     danger_heading: float = 0.0
 
 
@@ -282,11 +285,10 @@ class RefWorld:
         if hot:
             c = min(hot, key=lambda c: c.dist)
             self.hits["emergency trigger" + (" (target)" if any(a is t for t in self.targets) else "")] += 1
-            self.hits["emergency retrigger while in danger"] += mem.danger_left > 0
-            mem.danger_left = A["danger_steps"]
+            self.hits["emergency retrigger while in danger"] += self.t <= mem.danger_until
+            mem.danger_until = self.t + A["danger_steps"] - 1
             mem.danger_heading = wrap(bisector(c) + PI)
-        if mem.danger_left > 0:
-            mem.danger_left -= 1
+        if self.t <= mem.danger_until:
             self.hits["emergency heading"] += 1
             th = mem.danger_heading
             return (v_max if abs(wrap_pi(th - a.th)) <= PI / 2 else 0.0), th
@@ -294,6 +296,8 @@ class RefWorld:
 
     # ---- §3 + §4: the seed000 wolf -----------------------------------------------------------
     def wolf_command(self, i: int):
+        """SPEC §3: ν = α ν₁ + β ν₂, then §4 avoidance, then the §2 saturator. Returns
+        ((v, ω), the wolves whose information was used (§1.4))."""
         P, S = self.P, self.P["seed000"]
         W = self.wolves
         me = W[i]
@@ -309,10 +313,11 @@ class RefWorld:
             self.hits["wolf senses"] += 1
         else:
             sensing = [(float(np.linalg.norm(W[j].p - pi_)), j) for j in range(self.n)
-                       if j != i and float(np.linalg.norm(tgt.p - W[j].p)) <= rw
-                       and (self.wolf_target[j] == self.wolf_target[i] or not READINGS["follow_same_target_only"])]
-            own = [(float(np.linalg.norm(W[j].p - pi_)), j) for j in range(self.n) if j != i and self.wolf_senses[j]]
-            self.hits["follow readings differ (M > 1)"] += min(own, default=(0, None))[1] != min(sensing, default=(0, None))[1]
+                       if j != i and float(np.linalg.norm(tgt.p - W[j].p)) <= rw]
+            hunting = [(d, j) for d, j in sensing if self.wolf_target[j] == self.wolf_target[i]]
+            self.hits["follow readings differ (M > 1)"] += min(sensing, default=(0, None)) != min(hunting, default=(0, None))
+            if READINGS["follow_same_target_only"]:
+                sensing = hunting
             if sensing:
                 dij, j = min(sensing)
                 a1 = S["varsigma"] * (W[j].p - pi_) * dij ** S["tau2"]
@@ -361,11 +366,11 @@ class RefWorld:
         near_me = float(np.linalg.norm(tp - me.p)) <= ee
         n_near = sum(float(np.linalg.norm(tp - w.p)) <= ee for w in self.wolves)
         if near_me and (n_near >= self.need or (len(items) == 1 and items[0][0] == "wall")):
-            self.hits["in danger at early exit"] += mem.danger_left > 0
+            self.hits["in danger at early exit"] += self.t <= mem.danger_until
             self.hits["wolf early exit"] += 1
             return v_d, th_d
         if not items:
-            self.hits["in danger, no item (wolf)"] += mem.danger_left > 0
+            self.hits["in danger, no item (wolf)"] += self.t <= mem.danger_until
             return v_d, th_d
         kappa = A["wolf_single"] if len(items) == 1 else A["wolf_multi"]
         self.hits.update(f"wolf {kind} item" for kind, *_ in items)
@@ -386,15 +391,27 @@ class RefWorld:
             s = sum(((me.p - o.p) / float((me.p - o.p) @ (me.p - o.p)) for o in close), np.zeros(2))
             th = angle_of(s)
             return (v_max if abs(wrap_pi(th - me.th)) <= PI / 2 else 0.0), th
-        # normal mode
+        # normal mode: the nearer edge, pushed outward
         for c in arcs:
             if strictly_inside(c, th_d):
                 self.hits["wolf edge"] += 1
-                return v_d, nearer_edge_out(c, th_d, A["edge_margin"])
+                gap, (lower, upper) = nearer_edge_gap(c, th_d), edges_out(c, A["edge_margin"])
+                if abs(gap) < EDGE_TIE:
+                    # θ_d at the bisector: typically a wolf following its nearest partner j while
+                    # j is a partner item and L ∥ ν₁; either edge is admissible.
+                    self.hits["wolf edge tie"] += 1
+                    return v_d, self.edge_tie(i, v_d, lower, upper)
+                return v_d, lower if gap < 0 else upper
         return v_d, th_d
+
+    def edge_tie(self, i: int, v_d: float, lower: float, upper: float) -> float:
+        """Which edge a wolf takes at an exact tie; the comparison replaces this with the edge
+        the Rust world took (either is admissible). Default: the upper (counter-clockwise) one."""
+        return upper
 
     # ---- §5 + §4 target variant: the escape target ---------------------------------------
     def target_command(self, j: int):
+        """SPEC §5 escape (after the first sighting) or `still`, then §4 target variant, then §2."""
         P = self.P
         T = self.targets[j]
         tp_ = P["agents"]["target"]
@@ -423,7 +440,7 @@ class RefWorld:
         tp_ = P["agents"]["target"]
         items = self.wall_items(T)
         if not items:
-            self.hits["in danger, no item (target)"] += mem.danger_left > 0
+            self.hits["in danger, no item (target)"] += self.t <= mem.danger_until
             return v_d, th_d
         kappa = A["target_single"] if len(items) == 1 else A["target_multi"]
         self.hits["target wall item"] += len(items)
@@ -434,7 +451,8 @@ class RefWorld:
         for c in arcs:
             if strictly_inside(c, T.th):
                 self.hits["target edge"] += 1
-                return v_d, nearer_edge_out(c, T.th, A["edge_margin"])
+                lower, upper = edges_out(c, A["edge_margin"])
+                return v_d, lower if nearer_edge_gap(c, T.th) < 0 else upper
         _, om = saturate(T.th, th_d, v_d, tp_["v_max"], tp_["omega_max"], P["world"]["ts"])
         th_new = wrap(T.th + om * P["world"]["ts"])
         if any(strictly_inside(c, th_new) for c in arcs):
@@ -444,6 +462,8 @@ class RefWorld:
 
     # ---- §1.5 one synchronous step ---------------------------------------------------------
     def step(self) -> str:
+        """SPEC §1.5: every controller reads the same snapshot; wolves move in index order through
+        the feasibility filter, then targets; then outcomes."""
         if self.outcome != "running":
             return self.outcome
         P = self.P
@@ -486,7 +506,7 @@ class RefWorld:
                     if inside and not any(triangles_overlap(me, bodies[k]) for k in range(self.n) if k != i):
                         break
                     v *= 0.5
-                    self.hits["wolf speed halved"] += 1
+                    self.hits["wolf speed halved" + ("" if inside else " (border)")] += 1
             x, y = w.x + v * math.cos(w.th) * ts, w.y + v * math.sin(w.th) * ts
             self.wolves[i] = Agent(x, y, th, v, om, w.energy + 0.5 * side["mass"] * v * v)
             bodies[i] = body(x, y, th, b["base"], b["height"])

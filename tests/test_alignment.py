@@ -17,7 +17,7 @@ import pytest
 import wolfpack
 from wolfpack import _core
 
-from reference_model import RefWorld, wrap_pi
+from reference_model import RefWorld, saturate, wrap_pi
 
 ATOL = 1e-9
 MAX_STEPS = 200
@@ -73,17 +73,23 @@ for s in range(2):  # the target starts closer to a wall than D_DANGER: its emer
     CASES.append((f"target-at-wall-{s}", dict(seed=350 + s, box=wbox, target_box=tbox), {}, ["emergency trigger (target)"]))
 for s in range(3):  # wolves hunt their nearest target, re-assigned every retarget_period steps
     CASES.append((f"two-targets-{s}", dict(seed=400 + s, n_targets=2), {}, ["target keeps heading"]))
-for s, must in enumerate([["follow readings differ (M > 1)"], []]):
-    # one target is captured (and freezes) well before the other: re-assignment
+# a wolf j that senses wolf i's target but hunts the other one (the followed-partner reading)
+CASES.append(("two-targets-3", dict(seed=1017, n_targets=2), {}, ["follow readings differ (M > 1)"]))
+for s in range(2):  # one target is captured (and freezes) well before the other: re-assignment
     CASES.append((f"two-targets-still-{s}", dict(seed=450 + s, n_targets=2),
-                  {"policies.targets": "still", "capture.count": 3}, must))
+                  {"policies.targets": "still", "capture.count": 3}, ["wolf follows"]))
 for s in range(2):
     CASES.append((f"three-wolves-{s}", dict(seed=500 + s, n_wolves=3), {"capture.count": 3}, ["wolf early exit"]))
 # the target senses from farther than the wolves: wolves start lost (zero attraction)
 CASES.append(("lost-start", dict(seed=600, near=(3.2, 4.3)), {"agents.target.sense_radius": 4.5}, ["wolf lost, zero", "target coasts"]))
-for s in range(2):  # slow wolves: the target outruns them, they go on along the remembered direction
-    CASES.append((f"lost-later-{s}", dict(seed=610 + s, n_wolves=3),
+for s, seed in enumerate([610, 611]):  # slow wolves: the target outruns them, they go on lost
+    CASES.append((f"lost-later-{s}", dict(seed=seed, n_wolves=3),
                   {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0}, ["wolf lost", "target coasts"]))
+# θ_d exactly on a partner interval's bisector (an edge tie), resolved both ways by the Rust world
+CASES.append(("edge-tie-0", dict(seed=1012, box=((6.0, -3.0), (9.0, 3.0)), target_box=((9.72, -3.0), (9.9, 3.0))), {},
+              ["wolf edge tie: rust took upper"]))
+CASES.append(("edge-tie-1", dict(seed=1000, n_wolves=3), {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0},
+              ["wolf edge tie: rust took lower"]))
 
 
 def _build(args, overrides):
@@ -116,6 +122,24 @@ def compare(name, params, layout, seed=0):
     tr = res["trajectory"]
     ref = RefWorld(params, layout)
     n = len(layout["wolves"])
+    wp, ts = params["agents"]["wolf"], params["world"]["ts"]
+
+    def rust_edge(i, v_d, lower, upper):
+        """At an exact tie (θ_d on the bisector) SPEC admits either edge: take the one whose
+        command the Rust world executed (v may since have been halved by the filter)."""
+        if ref.t + 1 >= tr["wolves"].shape[0]:
+            return upper
+        v_r, om_r = tr["wolves"][ref.t + 1][i][3:]
+
+        def score(edge):
+            v, om = saturate(ref.wolves[i].th, edge, v_d, wp["v_max"], wp["omega_max"], ts)
+            return int(abs(om - om_r) <= ATOL) + int(abs(v - v_r) <= ATOL)
+
+        edge = lower if score(lower) > score(upper) else upper
+        ref.hits["wolf edge tie: rust took " + ("lower" if edge == lower else "upper")] += 1
+        return edge
+
+    ref.edge_tie = rust_edge
     problems = []
     T = tr["wolves"].shape[0] - 1
     for t in range(T + 1):
@@ -175,6 +199,11 @@ AMBIGUOUS = [
      "are excepted from the emergency, so a partner wolf's centre distance < D_DANGER literally "
      "triggers it; the Rust core counts walls (obstacles) only and leaves close partners to the "
      "close-partner rule (open-0 step 106: wolves 2 and 4 at 0.264 m)"),
+    ("follow_same_target_only", False, "two-targets-3",
+     "SPEC §3: 'j is the nearest wolf that senses the target' — literally any wolf within r_w of "
+     "wolf i's target; the Rust core follows only wolves that also hunt that target (two-targets-3 "
+     "step 0: wolf 0 hunts target 1; wolf 1 (2.74 m away) senses target 1 but hunts target 0, so "
+     "Rust follows wolf 3 (5.59 m away) instead)"),
     ("partner_items_used", False, "open-0",
      "SPEC §1.4 lists 'followed partner, repulsion neighbours p, q' as used information; the Rust "
      "core also marks partner wolves that are §4 avoidance items (open-0 step 106: [wolf 0][wolf 1])"),

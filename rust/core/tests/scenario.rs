@@ -137,7 +137,7 @@ fn intervals() {
     }
     let m = Merged::new(items.as_slice(), kappa_row(&p.avoidance, true, items.count()));
     for iv in m.as_slice() {
-        println!("  merged ({:.3}, {:.3}) width {:.3} dist {:.3} sc {}", iv.lo, iv.hi, iv.hi - iv.lo, iv.dist, iv.static_circle);
+        println!("  merged ({:.3}, {:.3}) width {:.3} dist {:.3} exempt {}", iv.lo, iv.hi, iv.hi - iv.lo, iv.dist, iv.exempt);
     }
 }
 
@@ -211,6 +211,7 @@ fn modes() {
     let mut capture_wall = Vec::new();
     for seed in 0..n {
         let mut w = World::new(Arc::new(Params::default()), seed).unwrap();
+        let mut prev_mode = vec![avoidance::Mode::Normal(false); w.wolves.len()];
         while !w.is_done() {
             let (wolves, targets, mems) = (w.wolves.clone(), w.targets.clone(), w.wolf_memory.clone());
             let t = w.t;
@@ -240,7 +241,18 @@ fn modes() {
                 let nu = s.alpha * nu1 + s.beta * nu2;
                 let (_, _, mode) = avoidance::wolf_mode(i, &snap, nu.norm(), angle_of(nu), &mut mem.danger, &mut row);
                 let m = if (wolves[i].pos - tp).norm() <= 1.5 { &mut near } else { &mut far };
-                *m.entry(format!("{mode:?}")).or_default() += 1;
+                let wp = wolves[i].pos;
+                let wall = (10.0 - wp.x.abs()).min(10.0 - wp.y.abs());
+                let key = if mode == avoidance::Mode::Emergency && mems[i].danger.steps_left == 0 {
+                    format!("EmergencyStart wall<D {} prev {:?}", wall < 0.2849, prev_mode[i])
+                } else {
+                    format!("{mode:?}")
+                };
+                *m.entry(key).or_default() += 1;
+                if w.wolves[i].v < 0.05 {
+                    *m.entry(format!("STOPPED {mode:?}")).or_default() += 1;
+                }
+                prev_mode[i] = mode;
             }
         }
         if w.outcome == Outcome::Captured {
@@ -252,4 +264,16 @@ fn modes() {
     println!("target within 0.6 of a wall {:.1}% of steps", 100.0 * wall_steps as f64 / steps as f64);
     capture_wall.sort_by(f64::total_cmp);
     println!("target wall distance at capture: {:?}", capture_wall.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>());
+}
+
+/// Larger sample: `N=1000 cargo test --release -p wolfpack-core --test scenario sweep -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn sweep() {
+    let n: u64 = std::env::var("N").ok().map(|s| s.parse().unwrap()).unwrap_or(1000);
+    let res = run_episodes(&Params::default(), 0, 0, n, None, false, None).unwrap();
+    let count = |o: Outcome| res.iter().filter(|r| r.outcome == o).count() as f64 / n as f64 * 100.0;
+    let mut steps: Vec<u32> = res.iter().filter_map(|r| r.capture_step).collect();
+    steps.sort_unstable();
+    println!("SWEEP {n}: captured {:.1}% collision {:.1}% timeout {:.1}% median {}", count(Outcome::Captured), count(Outcome::Collision), count(Outcome::Timeout), steps[steps.len() / 2]);
 }

@@ -223,10 +223,11 @@ mod tests {
 
     #[test]
     fn escape_then_avoids() {
-        // Fleeing straight into a moving circle at (1.5, 0), r = 0.5 (d = 1.0): θ_d = 0, the
-        // heading 0.05 lies inside (−0.6797, 0.6797) (κ = 2.0, Δ = asin(1/3)), nearer the
-        // upper edge → θ_d = 0.6897; e = 2π − 0.6397 ≥ 2π − 0.7 → ω = 6.397.
-        let mut w = World::new(&[(-1.0, 0.0)], AgentState::at(0.0, 0.0, 0.05), Some(0), 200);
+        // Fleeing a wolf at (−1, −0.1) into a moving circle at (1.5, 0), r = 0.5 (d = 1.0):
+        // θ_d = atan(0.1) = 0.0997; the heading 0.05 lies inside (−0.6797, 0.6797) (κ = 2.0,
+        // Δ = asin(1/3)) and θ_d is nearer its upper edge → θ_d = 0.6897;
+        // e = 2π − 0.6397 ≥ 2π − 0.7 → ω = 6.397.
+        let mut w = World::new(&[(-1.0, -0.1)], AgentState::at(0.0, 0.0, 0.05), Some(0), 200);
         w.obstacles.push(Obstacle::circle(Vec2::new(1.5, 0.0), 0.5, true));
         let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
         let edge = 2.0 * (1.0f64 / 3.0).asin() + 0.01;
