@@ -49,6 +49,9 @@ READINGS = {
     "partner_items_used": True,
     # §3: a zero ν has no direction; θ_d := θ (else angle 0).
     "zero_velocity_keeps_heading": True,
+    # §1.5 world rule of step.rs (not in SPEC): a wolf whose speed fell below 0.01 does not turn
+    # on the spot when the turned body would overlap another wolf and the unturned one would not.
+    "turn_on_spot_checked": True,
     # §3 (M > 1): the followed partner must also hunt wolf i's target (not merely sense it).
     "follow_same_target_only": True,
 }
@@ -276,6 +279,14 @@ class RefWorld:
                 out.append(("wall", psi, math.acos(d / rng), d))
         return out
 
+    def danger_dist(self, kind: str, d: float) -> float:
+        """The distance an item brings to the emergency test (§4; ∞: it never triggers one).
+        `avoidance.wall_emergency: false` (a documented project switch, config.rs) exempts walls,
+        which SPEC does not."""
+        if kind == "wall":
+            return d if self.P["avoidance"].get("wall_emergency", True) else math.inf
+        return d if READINGS["partners_trigger_emergency"] else math.inf
+
     def emergency_or_none(self, a: Agent, mem: Memory, arcs, v_max: float):
         """§4 emergency: a merged interval closer than D_DANGER puts the agent in danger for this
         and the next danger_steps−1 steps; it heads away from that bisector at v_max (or 0 when
@@ -374,8 +385,7 @@ class RefWorld:
             return v_d, th_d
         kappa = A["wolf_single"] if len(items) == 1 else A["wolf_multi"]
         self.hits.update(f"wolf {kind} item" for kind, *_ in items)
-        arcs = merge_arcs([(psi, kappa["wall"] * delta if kind == "wall" else delta,
-                            d if kind == "wall" or READINGS["partners_trigger_emergency"] else math.inf)
+        arcs = merge_arcs([(psi, kappa["wall"] * delta if kind == "wall" else delta, self.danger_dist(kind, d))
                            for kind, psi, delta, d in items])
         v_max = P["agents"]["wolf"]["v_max"]
         self.hits["partner closer than D_DANGER"] += any(k == "partner" and d < A["danger_distance"] for k, _, _, d in items)
@@ -444,15 +454,18 @@ class RefWorld:
             return v_d, th_d
         kappa = A["target_single"] if len(items) == 1 else A["target_multi"]
         self.hits["target wall item"] += len(items)
-        arcs = merge_arcs([(psi, kappa["wall"] * delta, d) for _, psi, delta, d in items])
+        arcs = merge_arcs([(psi, kappa["wall"] * delta, self.danger_dist(kind, d)) for kind, psi, delta, d in items])
         em = self.emergency_or_none(T, mem, arcs, tp_["v_max"])
         if em is not None:
             return em
         for c in arcs:
             if strictly_inside(c, T.th):
+                # "nearer edge": nearer to θ (SPEC's wording) or, with the project switch
+                # avoidance.target_edge_from_desired, nearer to θ_d (source eq. 13)
                 self.hits["target edge"] += 1
                 lower, upper = edges_out(c, A["edge_margin"])
-                return v_d, lower if nearer_edge_gap(c, T.th) < 0 else upper
+                ref = th_d if A.get("target_edge_from_desired", False) else T.th
+                return v_d, lower if nearer_edge_gap(c, ref) < 0 else upper
         _, om = saturate(T.th, th_d, v_d, tp_["v_max"], tp_["omega_max"], P["world"]["ts"])
         th_new = wrap(T.th + om * P["world"]["ts"])
         if any(strictly_inside(c, th_new) for c in arcs):
@@ -495,15 +508,24 @@ class RefWorld:
             om = min(max(om, -side["omega_max"]), side["omega_max"])
             w = self.wolves[i]
             th = wrap(w.th + om * ts)
+
+            def feasible(x, y, th):
+                """Strictly inside the border, clear of the other wolves' current bodies."""
+                me = body(x, y, th, b["base"], b["height"])
+                return x0 < x < x1 and y0 < y < y1 and not any(triangles_overlap(me, bodies[k]) for k in range(self.n) if k != i)
+
             if P["world"]["feasibility_filter"]:
                 while True:
                     if v < 0.01:
-                        v = 0.0  # below 0.01 it only turns
+                        v = 0.0  # below 0.01 it only turns ...
+                        if (READINGS["turn_on_spot_checked"] and om != 0.0
+                                and not feasible(w.x, w.y, th) and feasible(w.x, w.y, w.th)):
+                            th, om = w.th, 0.0  # ... unless that turn itself overlaps a wolf
+                            self.hits["wolf turn refused"] += 1
                         break
                     x, y = w.x + v * math.cos(w.th) * ts, w.y + v * math.sin(w.th) * ts
                     inside = x0 < x < x1 and y0 < y < y1
-                    me = body(x, y, th, b["base"], b["height"])
-                    if inside and not any(triangles_overlap(me, bodies[k]) for k in range(self.n) if k != i):
+                    if feasible(x, y, th):
                         break
                     v *= 0.5
                     self.hits["wolf speed halved" + ("" if inside else " (border)")] += 1

@@ -15,8 +15,8 @@
 //! (ψ − κΔ, ψ + κΔ) are merged circularly; then, in this order of precedence:
 //!
 //! 1. early exits (wolves): no avoidance near a target that is being captured;
-//! 2. emergency: a merged interval closer than `danger_distance` (static circles and walls
-//!    excepted) makes the agent flee straight away from it for `danger_steps` steps;
+//! 2. emergency: a merged interval closer than `danger_distance` (static circles excepted)
+//!    makes the agent flee straight away from it for `danger_steps` steps;
 //! 3. close partner (wolves): steer away from partners closer than `partner_danger` ahead;
 //! 4. normal mode (eqs. 11–13): θ_d inside an interval → nearer edge pushed out by
 //!    `edge_margin`; the target variant tests its current heading instead (SPEC §4 last bullet).
@@ -29,10 +29,12 @@
 //! - Partner items never trigger an emergency (their distance is a centre distance, and
 //!   close-partner steering is the dedicated rule); in a merged interval they do not count for
 //!   its distance.
-//! - Walls never trigger an emergency either: a deliberate departure from SPEC's letter, with
-//!   the measurements that motivate it at [`WALL_EMERGENCY`].
-//! - Normal mode and the target variant both move θ_d to the edge nearest θ_d (eq. 13's
-//!   argmin of dif); the target variant only *tests* its current heading θ.
+//! - Two readings are parameters, documented with their measured effect in config.rs
+//!   (`AvoidanceParams::wall_emergency`, `AvoidanceParams::target_edge_from_desired`): whether
+//!   walls can trigger emergencies, and whether the target variant's nearer edge is measured
+//!   from θ_d (eq. 13 of the source) or from the heading θ.
+//! - An emergency keeps steering for its whole duration even if its cause left the range
+//!   (SPEC: "while in danger it heads straight away").
 //! - Intervals that touch are merged (a gap of zero width is no way through).
 //! - A merged interval covering the whole circle has no edge: normal mode keeps θ_d.
 //! - Ties for the "nearer edge" go to the lower (clockwise) edge.
@@ -49,16 +51,6 @@ use crate::config::{AvoidanceParams, KappaRow};
 use crate::math::{angle_of, wrap, Vec2, FRAC_PI_2, PI, TAU};
 use crate::policies::saturator::{next_heading, saturate};
 use crate::world::{Obstacle, ObstacleKind};
-
-/// Whether a wall can cause an emergency. SPEC §4 names only static circles as exempt, but
-/// with walls included the documented scenario collapses (seeds 0..1000: 68% captured, 6.3%
-/// wolf collisions, median capture at step 218, against the reference's 96% / 4% / 166): the
-/// wall-only early exit lets a wolf close in on a target that runs along a wall, and as soon as
-/// the exit lapses the wall emergency turns it away for three steps. A wall also cannot end an
-/// episode (the feasibility filter keeps every pose strictly inside; only obstacles and wolves
-/// collide), while the emergency exists to avoid collisions. Walls are therefore exempt, like
-/// static circles: 94% / 1.7% / 185 on the same seeds. Set to `true` for the literal reading.
-pub const WALL_EMERGENCY: bool = false;
 
 /// Items kept per agent and step; more are dropped farthest first (12 obstacles + 4 walls +
 /// a few partners in the documented scenario).
@@ -181,8 +173,7 @@ pub fn kappa_row(a: &AvoidanceParams, wolf: bool, count: usize) -> &KappaRow {
 
 /// A danger interval (lo, hi) read anticlockwise, lo ∈ [0, 2π), lo ≤ hi ≤ lo + 2π (unwrapped
 /// upper end). `dist` is the distance of its closest (non-partner) member; `exempt` whether
-/// that member can make no emergency (a static circle, as SPEC says, or a wall: see
-/// [`WALL_EMERGENCY`]).
+/// that member can make no emergency (a static circle; a wall unless `wall_emergency`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Interval {
     pub lo: f64,
@@ -195,14 +186,14 @@ const NO_INTERVAL: Interval = Interval { lo: 0.0, hi: 0.0, dist: f64::INFINITY, 
 
 impl Interval {
     /// (ψ − κΔ, ψ + κΔ); a half-width beyond π covers the whole circle.
-    pub fn of(it: &Item, kappa: f64) -> Self {
+    pub fn of(it: &Item, kappa: f64, wall_emergency: bool) -> Self {
         let h = (kappa * it.delta).clamp(0.0, PI);
         let lo = wrap(it.psi - h);
         let (dist, exempt) = match it.kind {
             // Partners never make an emergency and do not count for the distance.
             ItemKind::Partner(_) => (f64::INFINITY, true),
             ItemKind::Obstacle(k) => (it.dist, k == ObstacleKind::StaticCircle),
-            ItemKind::Wall => (it.dist, !WALL_EMERGENCY),
+            ItemKind::Wall => (it.dist, !wall_emergency),
         };
         Self { lo, hi: lo + 2.0 * h, dist, exempt }
     }
@@ -256,10 +247,10 @@ pub struct Merged {
 
 impl Merged {
     /// Widens every item by its κ and merges overlapping (or touching) intervals circularly.
-    pub fn new(items: &[Item], row: &KappaRow) -> Self {
+    pub fn new(items: &[Item], row: &KappaRow, wall_emergency: bool) -> Self {
         let mut m = Self { buf: [NO_INTERVAL; MAX_ITEMS], len: items.len().min(MAX_ITEMS) };
         for (slot, it) in m.buf.iter_mut().zip(items) {
-            *slot = Interval::of(it, kappa(row, it.kind));
+            *slot = Interval::of(it, kappa(row, it.kind), wall_emergency);
         }
         m.merge();
         m
@@ -306,7 +297,7 @@ impl Merged {
     }
 
     /// The closest merged interval nearer than `d_danger` whose closest member is not exempt
-    /// (static circles, walls): the emergency's cause. Returns the heading straight away from
+    /// (static circles): the emergency's cause. Returns the heading straight away from
     /// its bisector.
     pub fn emergency(&self, d_danger: f64) -> Option<f64> {
         self.as_slice()
@@ -423,7 +414,7 @@ pub fn wolf_mode(i: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut
             row[k] = 1;
         }
     }
-    let merged = Merged::new(items.as_slice(), kappa_row(a, true, items.count()));
+    let merged = Merged::new(items.as_slice(), kappa_row(a, true, items.count()), a.wall_emergency);
 
     if let Some(away) = tick_danger(danger, merged.emergency(a.danger_distance), a.danger_steps) {
         let (v, th) = dash(away, me.theta, p.agents.wolf.v_max);
@@ -456,23 +447,23 @@ pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut Da
     let mut items = Items::default();
     collect_walls(me.pos, &p.world.border, a.wall_range, &mut items);
     collect_obstacles(me.pos, snap.obstacles, a.obstacle_range, &mut items);
-    let merged = Merged::new(items.as_slice(), kappa_row(a, false, items.count()));
+    let merged = Merged::new(items.as_slice(), kappa_row(a, false, items.count()), a.wall_emergency);
 
     if let Some(away) = tick_danger(danger, merged.emergency(a.danger_distance), a.danger_steps) {
         return dash(away, me.theta, side.v_max);
     }
-    (v_d, target_variant(&merged, v_d, theta_d, me.theta, side.v_max, side.omega_max, p.world.ts, a.edge_margin))
+    (v_d, target_variant(&merged, v_d, theta_d, me.theta, side.v_max, side.omega_max, p.world.ts, a.edge_margin, a.target_edge_from_desired))
 }
 
 /// The target variant of normal mode: test the current heading θ, not θ_d. θ inside an
-/// interval → that interval's edge nearer to θ_d (eq. 13: the edge closest to the desired
-/// direction), pushed out; otherwise, if one saturator step towards θ_d would turn into an
-/// interval, keep the current heading.
+/// interval → that interval's edge nearer to θ_d (`from_desired`, eq. 13) or to θ,
+/// pushed out; otherwise, if one saturator step towards θ_d would turn into an interval, keep
+/// the current heading.
 #[allow(clippy::too_many_arguments)]
-pub fn target_variant(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max: f64, omega_max: f64, ts: f64, margin: f64) -> f64 {
+pub fn target_variant(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max: f64, omega_max: f64, ts: f64, margin: f64, from_desired: bool) -> f64 {
     if let Some(iv) = merged.containing(theta) {
-        // Only the test uses θ; the edge is eq. 13's, the one nearest the desired direction.
-        return if iv.is_full() { theta_d } else { iv.nearer_edge(theta_d, margin) };
+        let from = if from_desired { theta_d } else { theta };
+        return if iv.is_full() { theta_d } else { iv.nearer_edge(from, margin) };
     }
     let next = next_heading(theta, saturate(v_d, theta_d, theta, v_max, omega_max, ts), ts);
     if merged.containing(next).is_some() {
@@ -634,7 +625,7 @@ mod tests {
         // A circle (Δ = 0.2) and a partner (Δ = π/12): two items → wolf_multi, circle κ = 1.8.
         let items = [item(ItemKind::Obstacle(ObstacleKind::MovingCircle), 1.0, 0.2, 1.0), item(ItemKind::Partner(3), 4.0, PI / 12.0, 0.7)];
         let a = AvoidanceParams::default();
-        let m = Merged::new(&items, kappa_row(&a, true, 2));
+        let m = Merged::new(&items, kappa_row(&a, true, 2), true);
         let s = m.as_slice();
         assert_eq!(s.len(), 2);
         assert!(close(s[0].lo, 1.0 - 0.36) && close(s[0].hi, 1.0 + 0.36), "{s:?}");
@@ -653,7 +644,7 @@ mod tests {
             item(ItemKind::Obstacle(ObstacleKind::StaticPolygon), 1.6, 0.4, 0.5),
             item(ItemKind::Obstacle(ObstacleKind::StaticCircle), 3.5, 0.5, 0.1),
         ];
-        let m = Merged::new(&items, &row);
+        let m = Merged::new(&items, &row, true);
         let s = m.as_slice();
         assert_eq!(s.len(), 2, "{s:?}");
         assert!(close(s[0].lo, 0.5) && close(s[0].hi, 2.0) && close(s[0].dist, 0.5) && !s[0].exempt, "{s:?}");
@@ -673,7 +664,7 @@ mod tests {
             item(ItemKind::Wall, 0.275, 0.225, 0.9),
             item(ItemKind::Wall, 6.0, 0.1, 0.8),
         ];
-        let m = Merged::new(&items, &row);
+        let m = Merged::new(&items, &row, true);
         let s = m.as_slice();
         assert_eq!(s.len(), 1, "{s:?}");
         assert!(close(s[0].lo, 5.9) && close(s[0].hi, TAU + 0.5), "{s:?}");
@@ -690,7 +681,7 @@ mod tests {
         let row = KappaRow { wall: 1.0, circle: 1.0, static_polygon: 1.0, moving_polygon: 1.0 };
         // (4, 4 + 3) = (4, 7.0) wraps to 0.717; (0.2, 0.4) lies under it; (1.0, 1.2) apart.
         let items = [item(ItemKind::Wall, 5.5, 1.5, 1.0), item(ItemKind::Wall, 0.3, 0.1, 0.2), item(ItemKind::Wall, 1.1, 0.1, 0.3)];
-        let m = Merged::new(&items, &row);
+        let m = Merged::new(&items, &row, true);
         let s = m.as_slice();
         assert_eq!(s.len(), 2, "{s:?}");
         assert!(close(s[0].lo, 1.0) && close(s[0].hi, 1.2));
@@ -700,7 +691,7 @@ mod tests {
     #[test]
     fn widening_beyond_pi_covers_the_circle_and_keeps_theta_d() {
         let row = KappaRow { wall: 3.0, circle: 1.0, static_polygon: 1.0, moving_polygon: 1.0 };
-        let m = Merged::new(&[item(ItemKind::Wall, 1.0, 1.2, 0.5)], &row);
+        let m = Merged::new(&[item(ItemKind::Wall, 1.0, 1.2, 0.5)], &row, true);
         assert!(m.as_slice()[0].is_full());
         assert_eq!(normal_mode(&m, 2.0, 0.01), 2.0);
     }
@@ -711,7 +702,7 @@ mod tests {
     fn normal_mode_moves_theta_d_to_the_nearer_edge() {
         let row = KappaRow { wall: 1.0, circle: 2.0, static_polygon: 1.0, moving_polygon: 1.0 };
         // Circle ψ = 1.0, Δ = 0.25, κ = 2 → (0.5, 1.5).
-        let m = Merged::new(&[item(ItemKind::Obstacle(ObstacleKind::MovingCircle), 1.0, 0.25, 1.0)], &row);
+        let m = Merged::new(&[item(ItemKind::Obstacle(ObstacleKind::MovingCircle), 1.0, 0.25, 1.0)], &row, true);
         assert!(close(normal_mode(&m, 0.9, 0.01), 0.49));
         assert!(close(normal_mode(&m, 1.2, 0.01), 1.51));
         assert_eq!(normal_mode(&m, 1.6, 0.01), 1.6, "outside: unchanged");
@@ -728,44 +719,42 @@ mod tests {
         let sc = ItemKind::Obstacle(ObstacleKind::StaticCircle);
         let mc = ItemKind::Obstacle(ObstacleKind::MovingCircle);
         // Static circle at 0.1 → excepted; moving circle at 0.2 at ψ = π/2 → flee to 3π/2.
-        let m = Merged::new(&[item(sc, 0.0, 0.2, 0.1), item(mc, FRAC_PI_2, 0.2, 0.2)], &row);
+        let m = Merged::new(&[item(sc, 0.0, 0.2, 0.1), item(mc, FRAC_PI_2, 0.2, 0.2)], &row, true);
         assert!(close(m.emergency(0.28489136293795562).unwrap(), 1.5 * PI));
-        let m = Merged::new(&[item(sc, 0.0, 0.2, 0.1)], &row);
+        let m = Merged::new(&[item(sc, 0.0, 0.2, 0.1)], &row, true);
         assert_eq!(m.emergency(0.28489136293795562), None);
         // 0.29 is not closer than D_DANGER.
-        let m = Merged::new(&[item(mc, 0.0, 0.2, 0.29)], &row);
+        let m = Merged::new(&[item(mc, 0.0, 0.2, 0.29)], &row, true);
         assert_eq!(m.emergency(0.28489136293795562), None);
         // A static circle at 0.1 merged with a moving one at 0.2: the closest member decides,
         // so the merged interval is exempt.
-        let m = Merged::new(&[item(sc, 0.0, 0.2, 0.1), item(mc, 0.3, 0.2, 0.2)], &row);
+        let m = Merged::new(&[item(sc, 0.0, 0.2, 0.1), item(mc, 0.3, 0.2, 0.2)], &row, true);
         assert_eq!(m.as_slice().len(), 1);
         assert_eq!(m.emergency(0.28489136293795562), None);
     }
 
     #[test]
-    fn walls_make_no_emergency() {
-        // A wall 0.1 away (see WALL_EMERGENCY) and a static polygon 0.2 away at ψ = π/2,
-        // apart: the polygon's interval is the cause → flee to 3π/2.
-        let row = KappaRow { wall: 1.0, circle: 1.0, static_polygon: 1.0, moving_polygon: 1.0 };
-        let m = Merged::new(&[item(ItemKind::Wall, 0.0, 0.3, 0.1)], &row);
-        assert_eq!(m.emergency(0.28489136293795562).is_some(), WALL_EMERGENCY);
-        let m = Merged::new(&[item(ItemKind::Wall, 0.0, 0.3, 0.1), item(ItemKind::Obstacle(ObstacleKind::StaticPolygon), FRAC_PI_2, 0.3, 0.2)], &row);
-        if !WALL_EMERGENCY {
-            assert!(aclose(m.emergency(0.28489136293795562).unwrap(), 1.5 * PI));
-        }
-        // In the world: a wolf 0.1 from the right wall, target far: normal mode, no clock.
-        let w = World::new(vec![AgentState::at(9.9, 0.0, 0.0)], vec![AgentState::at(0.0, 5.0, 0.0)], vec![]);
+    fn wall_emergency_follows_the_switch() {
+        // A wolf 0.1 from the right wall (ψ = 0), heading π/2 + 0.1, target far away.
+        for wall_emergency in [true, false] {
+        let mut w = World::new(vec![AgentState::at(9.9, 0.0, FRAC_PI_2 + 0.1)], vec![AgentState::at(0.0, 5.0, 0.0)], vec![]);
+        w.params.avoidance.wall_emergency = wall_emergency;
         let mut d = DangerMemory::default();
-        let (_, _, mode) = wolf_mode(0, &w.snap(), 1.0, 0.1, &mut d, &mut [0u8; 2]);
-        assert_eq!(mode == Mode::Emergency, WALL_EMERGENCY);
-        // Wall d = 0.1, Δ = acos(0.1/1.4) = 1.4993, κ = 1.6 → half-width 2.3989; θ_d = 0.1 is
-        // nearer the upper edge → 2.3989 + 0.01.
-        if !WALL_EMERGENCY {
+        let (v, th, mode) = wolf_mode(0, &w.snap(), 1.0, 0.1, &mut d, &mut [0u8; 2]);
+        if wall_emergency {
+            // Flee straight away from the wall (π); the turn from π/2 + 0.1 is π/2 − 0.1
+            // → v_max; the clock has two steps left.
+            assert_eq!(mode, Mode::Emergency);
+            assert!(aclose(th, PI) && v == 1.5, "({v}, {th})");
+            assert_eq!(d.steps_left, 2);
+        } else {
+            // Normal mode: Δ = acos(0.1/1.4) = 1.4993, κ = 1.6 → half-width 2.3989; θ_d = 0.1
+            // is nearer the upper edge → 2.3989 + 0.01; no clock.
             assert_eq!(mode, Mode::Normal(true));
-            let (_, th) = wolf(0, &w.snap(), 1.0, 0.1, &mut d, &mut [0u8; 2]);
-            assert!(close(th, 1.6 * (0.1f64 / 1.4).acos() + 0.01), "{th}");
+            assert!(close(th, 1.6 * (0.1f64 / 1.4).acos() + 0.01) && v == 1.0, "({v}, {th})");
             assert_eq!(d.steps_left, 0);
         }
+    }
     }
 
     #[test]
@@ -909,31 +898,33 @@ mod tests {
     fn target_variant_tests_the_current_heading() {
         let row = KappaRow { wall: 1.0, circle: 1.0, static_polygon: 1.0, moving_polygon: 1.0 };
         // Interval (0.5, 1.5).
-        let m = Merged::new(&[item(ItemKind::Obstacle(ObstacleKind::MovingCircle), 1.0, 0.5, 1.0)], &row);
-        // θ = 1.3 inside → the edge nearer to θ_d (eq. 13), pushed out: θ_d = 3.0 → upper
-        // (1.5 away, lower 2.5) → 1.51; θ_d = 0.2 → lower (0.3 away, upper 1.3) → 0.49,
-        // although θ itself is nearer the upper edge.
-        assert!(close(target_variant(&m, 1.0, 3.0, 1.3, 1.5, 7.0, 0.1, 0.01), 1.51));
-        assert!(close(target_variant(&m, 1.0, 0.2, 1.3, 1.5, 7.0, 0.1, 0.01), 0.49));
-        // θ_d = 6.0 (wraps): 0.783 from the lower edge, 1.783 from the upper → 0.49.
-        assert!(close(target_variant(&m, 1.0, 6.0, 1.3, 1.5, 7.0, 0.1, 0.01), 0.49));
+        let m = Merged::new(&[item(ItemKind::Obstacle(ObstacleKind::MovingCircle), 1.0, 0.5, 1.0)], &row, true);
+        // θ = 1.3 inside → an edge pushed out. θ_d = 3.0: both θ (0.2 from the upper edge,
+        // 0.8 from the lower) and θ_d (1.5 vs 2.5) are nearer the upper one → 1.51.
+        assert!(close(target_variant(&m, 1.0, 3.0, 1.3, 1.5, 7.0, 0.1, 0.01, true), 1.51));
+        // θ_d = 0.2 is nearer the lower edge (0.3 vs 1.3), θ the upper: the reading decides.
+        assert!(close(target_variant(&m, 1.0, 0.2, 1.3, 1.5, 7.0, 0.1, 0.01, true), 0.49));
+        assert!(close(target_variant(&m, 1.0, 0.2, 1.3, 1.5, 7.0, 0.1, 0.01, false), 1.51));
+        // θ = 0.6 nearer the lower edge; θ_d = 6.0 (wraps) 0.783 from the lower, 1.783 from
+        // the upper → 0.49 either way.
+        assert!(close(target_variant(&m, 1.0, 6.0, 0.6, 1.5, 7.0, 0.1, 0.01, true), 0.49));
         // θ = 0.0 outside, θ_d = 1.0: one saturator step turns by k = 0.7 → 0.7, inside →
         // keep θ_d := θ = 0.
-        assert_eq!(target_variant(&m, 1.0, 1.0, 0.0, 1.5, 7.0, 0.1, 0.01), 0.0);
+        assert_eq!(target_variant(&m, 1.0, 1.0, 0.0, 1.5, 7.0, 0.1, 0.01, true), 0.0);
         // θ = 0.0, θ_d = 0.3: the step lands on 0.3, outside → θ_d unchanged, even though θ_d
         // would be fine in any case.
-        assert_eq!(target_variant(&m, 1.0, 0.3, 0.0, 1.5, 7.0, 0.1, 0.01), 0.3);
+        assert_eq!(target_variant(&m, 1.0, 0.3, 0.0, 1.5, 7.0, 0.1, 0.01, true), 0.3);
         // θ = 0.0, θ_d = 1.0 (inside!): one step only reaches 0.7 — still inside → keep θ.
         // θ = 2.0, θ_d = 1.0 (inside): the step reaches 1.3 — inside → keep θ = 2.0.
-        assert_eq!(target_variant(&m, 1.0, 1.0, 2.0, 1.5, 7.0, 0.1, 0.01), 2.0);
+        assert_eq!(target_variant(&m, 1.0, 1.0, 2.0, 1.5, 7.0, 0.1, 0.01, true), 2.0);
     }
 
     #[test]
     fn target_uses_target_rows_and_ignores_wolves() {
         // Target at (0,0), heading 0.05, moving circle r = 0.5 at (1.5, 0): d = 1.0, one
         // item, κ = 2.0 (target_single), Δ = asin(0.5/1.5) → interval ±0.6797. θ = 0.05 is
-        // inside; θ_d = 3.0 is nearer the upper edge → 0.6797 + 0.01. A wolf right ahead
-        // changes nothing.
+        // inside and, like θ_d = 3.0, nearer the upper edge → 0.6797 + 0.01. A wolf right
+        // ahead changes nothing.
         let mut w = World::new(vec![AgentState::at(0.3, 0.0, 0.0)], vec![AgentState::at(0.0, 0.0, 0.05)], vec![Obstacle::circle(v(1.5, 0.0), 0.5, true)]);
         let h = 2.0 * (1.0f64 / 3.0).asin();
         let (vd, th) = target(0, &w.snap(), 1.2, 3.0, &mut DangerMemory::default());
@@ -942,11 +933,11 @@ mod tests {
         // circle κ = 1.6.
         w.targets[0] = AgentState::at(8.8, 0.0, 0.0);
         w.obstacles[0] = Obstacle::circle(v(8.8, 1.5), 0.5, true);
-        // Heading π/2 towards the circle: circle interval π/2 ± 1.6·0.3398 =
-        // (1.0271, 2.1145); wall interval 0 ± 1.2·acos(1.2/1.4) = ±0.6493: separate.
-        // θ_d = π/2 − 0.2 is nearer the lower edge → π/2 − 0.5437 − 0.01 (with
+        // Heading π/2 − 0.1 towards the circle: circle interval π/2 ± 1.6·0.3398 =
+        // (1.0271, 2.1145); wall interval 0 ± 1.2·acos(1.2/1.4) = ±0.6493: separate. θ and
+        // θ_d = π/2 − 0.2 are nearer the lower edge → π/2 − 0.5437 − 0.01 (with
         // target_single's κ = 2.0 it would be π/2 − 0.6797 − 0.01).
-        w.targets[0].theta = FRAC_PI_2;
+        w.targets[0].theta = FRAC_PI_2 - 0.1;
         let (_, th) = target(0, &w.snap(), 1.0, FRAC_PI_2 - 0.2, &mut DangerMemory::default());
         assert!(close(th, FRAC_PI_2 - 1.6 * (1.0f64 / 3.0).asin() - 0.01), "{th}");
     }

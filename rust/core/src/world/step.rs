@@ -145,12 +145,20 @@ impl World {
         for i in 0..self.wolves.len() {
             let cmd = clamp(self.wolf_cmds[i], &p.agents.wolf);
             let w = self.wolves[i];
-            let theta = wrap(w.theta + cmd.omega * ts);
+            let mut theta = wrap(w.theta + cmd.omega * ts);
+            let mut omega = cmd.omega;
             let mut v = cmd.v;
             if p.world.feasibility_filter {
                 loop {
                     if v < MIN_HALVED_SPEED {
                         v = 0.0;
+                        // SPEC: below 0.01 it only turns. A turn on the spot that would itself
+                        // touch a wolf or an obstacle is not made either (the reference let it
+                        // happen; every wolf–wolf collision measured here came from one).
+                        if omega != 0.0 && !self.wolf_pose_feasible(i, w.pos, theta) && self.wolf_pose_feasible(i, w.pos, w.theta) {
+                            theta = w.theta;
+                            omega = 0.0;
+                        }
                         break;
                     }
                     let pos = w.pos + unit(w.theta) * (v * ts);
@@ -162,7 +170,7 @@ impl World {
             }
             let pos = w.pos + unit(w.theta) * (v * ts);
             let mass = p.agents.wolf.mass;
-            self.wolves[i] = AgentState { pos, theta, v, omega: cmd.omega, energy: w.energy + 0.5 * mass * v * v };
+            self.wolves[i] = AgentState { pos, theta, v, omega, energy: w.energy + 0.5 * mass * v * v };
             self.bodies[i] = body_triangle(pos, theta, b.base, b.height);
         }
     }
