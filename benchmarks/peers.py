@@ -9,13 +9,14 @@ Measures, in this order:
 2. **mpe2 simple_tag** (PettingZoo parallel API) at the same counts: 5 adversaries, 1 good
    agent, 12 obstacles, ``max_cycles`` larger than the run (no resets inside the timed loop),
    random continuous actions drawn up-front so the env, not the sampler, is timed; single
-   process. An env-step is one ``env.step(actions)`` call moving every agent.
+   process. An env-step is one ``env.step(actions)`` call moving every agent. Also timed: the
+   same world's ``world.step()`` alone (physics without observations, rewards or wrappers).
 3. **VMAS** ``simple_tag`` with the same counts, only if ``vmas`` (and torch) is importable.
 4. The **published Python reference implementation**'s figure (SPEC.md §8), quoted, not measured.
 
 Usage::
 
-    python benchmarks/peers.py            # full run (~1 min on 2 cores), table on stdout
+    python benchmarks/peers.py            # full run (~2 min on 2 cores), table on stdout
     python benchmarks/peers.py --json     # the same as one JSON object on stdout
     python benchmarks/peers.py --quick    # smoke run (a few seconds)
 
@@ -160,6 +161,16 @@ def bench_mpe2(steps: int, repeats: int, seed: int = 0) -> dict:
             env.step(actions)
             done += 1
         runs.append((done, time.perf_counter() - t0))
+    # The same world's physics alone (world.step(): forces, collisions, integration; no
+    # observations, rewards or PettingZoo wrappers), holding the last actions: an upper
+    # bound on what any API over this engine could reach.
+    world = env.unwrapped.world
+    physics = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            world.step()
+        physics.append((steps, time.perf_counter() - t0))
     env.close()
     return {
         "scenario": (
@@ -169,6 +180,7 @@ def bench_mpe2(steps: int, repeats: int, seed: int = 0) -> dict:
         "steps": steps,
         "seconds": [s for _, s in runs],
         "env_steps_per_second": median_rate(runs),
+        "physics_only_env_steps_per_second": median_rate(physics),
     }
 
 
@@ -248,6 +260,8 @@ def table(report: dict) -> str:
             rows.append((label, "-", "skipped: " + r["skipped"]))
         else:
             rows.append((label, fmt_rate(r["env_steps_per_second"]), f"{r['steps']} steps"))
+            if "physics_only_env_steps_per_second" in r:
+                rows.append(("  mpe2 world.step() only", fmt_rate(r["physics_only_env_steps_per_second"]), "physics alone: no obs, rewards, wrappers"))
     ref = report["reference"]
     rows.append((
         "Python reference impl. (quoted)",
@@ -314,6 +328,9 @@ def main(argv: list[str] | None = None) -> int:
     report["ratios"] = {
         "wolfpack(1 thread) / mpe2": one["env_steps_per_second"] / mpe if mpe else None,
         "wolfpack(all cores) / mpe2": all_["env_steps_per_second"] / mpe if mpe else None,
+        "wolfpack(1 thread) / mpe2 world.step() only": (
+            one["env_steps_per_second"] / report["mpe2"]["physics_only_env_steps_per_second"] if mpe else None
+        ),
         "wolfpack(1 thread) / reference": one["env_steps_per_second"] / ref,
         "wolfpack(all cores) / reference": all_["env_steps_per_second"] / ref,
     }

@@ -30,7 +30,15 @@ to it; those in READINGS can be flipped, and the test pins the flipped ones as k
 - §4 normal mode at an exact tie (θ_d on the bisector, which happens whenever a wolf follows its
   nearest partner j, j is a partner item and L ∥ ν₁): SPEC names no edge; `RefWorld.edge_tie`
   decides (the comparison accepts the edge the Rust world took).
+- §4 target variant, "θ_d := nearer edge ∓ 0.01": nearer to θ (SPEC's wording) or, with the
+  project switch `avoidance.target_edge_from_desired` (config.rs), nearer to θ_d; angular
+  distances are circular, so θ_d may lie outside the interval.
 - §5 "none sensed": θ_d := θ and v_d := v · f(t)/f(t−1) with v the speed executed last step.
+
+Project switches that depart from SPEC (config.rs, step.rs), followed when the params carry them:
+`avoidance.wall_emergency: false` exempts walls from the emergency (SPEC excepts only static
+circles); a wolf whose speed fell below 0.01 does not turn on the spot when the turned body
+would overlap a wolf (READINGS["turn_on_spot_checked"]; SPEC: "it only turns").
 """
 
 from __future__ import annotations
@@ -170,9 +178,9 @@ def edges_out(arc: Arc, margin: float) -> tuple[float, float]:
 
 
 def nearer_edge_gap(arc: Arc, a: float) -> float:
-    """(distance of a to the lower edge) − (distance to the upper edge); < 0: lower is nearer."""
-    r = wrap(a - arc.lo)
-    return r - (arc.width - r)
+    """(angular distance of a to the lower edge) − (to the upper edge); < 0: lower is nearer.
+    `a` may lie outside the arc (the target variant can measure from θ_d)."""
+    return abs(wrap_pi(a - arc.lo)) - abs(wrap_pi(a - arc.lo - arc.width))
 
 
 # |nearer_edge_gap| below this is an exact tie blurred by rounding: SPEC names no rule for it.

@@ -84,6 +84,12 @@ CASES.append(("two-targets-3", dict(seed=1017, n_targets=2), {}, ["follow readin
 for s in range(2):  # one target is captured (and freezes) well before the other: re-assignment
     CASES.append((f"two-targets-still-{s}", dict(seed=450 + s, n_targets=2),
                   {"policies.targets": "still", "capture.count": 3}, ["wolf follows"]))
+for s in range(3):  # the project's defaults: walls exempt from the emergency
+    CASES.append((f"defaults-{s}", dict(seed=800 + s, box=[((5.5, -9.6), (9.6, 9.6)), ((-6.0, -6.0), (6.0, 6.0))][s % 2]),
+                  {"avoidance.wall_emergency": False}, ["wolf wall item", "target edge"]))
+for s in range(2):  # the target variant's "nearer edge" measured from θ (SPEC's wording) instead of θ_d
+    CASES.append((f"target-edge-from-heading-{s}", dict(seed=850 + s, box=((5.5, -9.6), (9.6, 9.6))),
+                  {"avoidance.target_edge_from_desired": False}, ["target edge", "emergency trigger"]))
 CASES.append(("eight-wolves", dict(seed=700, n_wolves=8, box=((-4.0, -4.0), (4.0, 4.0))), {}, ["wolf close partner"]))
 for s in range(2):
     CASES.append((f"three-wolves-{s}", dict(seed=500 + s, n_wolves=3), {"capture.count": 3}, ["wolf early exit"]))
@@ -99,13 +105,26 @@ CASES.append(("edge-tie-1", dict(seed=1000, n_wolves=3), {"agents.wolf.v_max": 0
               ["wolf edge tie: rust took lower"]))
 
 
+# Project switches (config.rs) that depart from SPEC's wording are set to SPEC's reading for the
+# comparison; the project's defaults are compared too, in the `defaults-*` cases. A switch the
+# core does not (or no longer) know is left out.
+SPEC_SWITCHES = {"avoidance.wall_emergency": True}
+PROJECT_SWITCHES = {"avoidance.wall_emergency", "avoidance.target_edge_from_desired"}
+
+
+def _known(key):
+    section, name = key.split(".")
+    return name in wolfpack.load_params()[section]
+
+
 def _build(args, overrides):
     args = dict(args)
     rng = np.random.default_rng(args.pop("seed"))
     layout = make_layout(rng, **args)
     n = len(layout["wolves"])
     over = {"world.max_steps": MAX_STEPS, "world.wolves": n, "world.targets": len(layout["targets"])}
-    over.update(overrides)
+    over.update({k: v for k, v in SPEC_SWITCHES.items() if _known(k)})
+    over.update({k: v for k, v in overrides.items() if k not in PROJECT_SWITCHES or _known(k)})
     if "capture.count" not in over:
         over["capture.count"] = None
     return wolfpack.load_params(overrides=over), layout
@@ -202,19 +221,17 @@ def test_two_targets_are_captured_at_different_steps():
 # SPEC leaves these readings open; the Rust core took the other one (see reference_model's
 # docstring). Each flipped reading is pinned here: it must keep failing on a case that exercises it.
 AMBIGUOUS = [
-    ("partners_trigger_emergency", True, "open-0",
-     "SPEC §4: 'a merged interval keeps the distance of its closest member' and only static circles "
-     "are excepted from the emergency, so a partner wolf's centre distance < D_DANGER literally "
-     "triggers it; the Rust core counts walls (obstacles) only and leaves close partners to the "
-     "close-partner rule (open-0 step 106: wolves 2 and 4 at 0.264 m)"),
+    ("partners_trigger_emergency", True, "eight-wolves",
+     "SPEC §4 ambiguity: 'a merged interval keeps the distance of its closest member' and only "
+     "static circles are excepted from the emergency, so a partner wolf closer than D_DANGER "
+     "(centre distance) literally triggers it; the Rust core lets only walls/obstacles trigger "
+     "it and leaves close partners to the close-partner rule"),
     ("follow_same_target_only", False, "two-targets-3",
-     "SPEC §3: 'j is the nearest wolf that senses the target' — literally any wolf within r_w of "
-     "wolf i's target; the Rust core follows only wolves that also hunt that target (two-targets-3 "
-     "step 0: wolf 0 hunts target 1; wolf 1 (2.74 m away) senses target 1 but hunts target 0, so "
-     "Rust follows wolf 3 (5.59 m away) instead)"),
+     "SPEC §3 ambiguity (M > 1): 'j is the nearest wolf that senses the target' — literally any "
+     "wolf within r_w of wolf i's target; the Rust core follows only wolves that also hunt it"),
     ("partner_items_used", False, "open-0",
-     "SPEC §1.4 lists 'followed partner, repulsion neighbours p, q' as used information; the Rust "
-     "core also marks partner wolves that are §4 avoidance items (open-0 step 106: [wolf 0][wolf 1])"),
+     "SPEC §1.4 ambiguity: it lists 'followed partner, repulsion neighbours p, q' as used "
+     "information; the Rust core also marks partner wolves that are §4 avoidance items"),
 ]
 
 

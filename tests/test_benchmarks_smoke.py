@@ -52,4 +52,5 @@ def test_mpe2_numbers_are_positive(report: dict) -> None:
     r = report["mpe2"]
     assert "skipped" not in r, r
     assert r["steps"] == 50 and r["env_steps_per_second"] > 0
+    assert r["physics_only_env_steps_per_second"] > 0
     assert report["ratios"]["wolfpack(1 thread) / mpe2"] > 0
