@@ -476,7 +476,6 @@ pub fn target_variant(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Params;
     use crate::policies::DangerMemory;
     use crate::world::AgentState;
 
@@ -493,37 +492,7 @@ mod tests {
         Vec2::new(x, y)
     }
 
-    struct World {
-        params: Params,
-        wolves: Vec<AgentState>,
-        targets: Vec<AgentState>,
-        obstacles: Vec<Obstacle>,
-        wolf_target: Vec<usize>,
-        wolf_senses: Vec<bool>,
-        seen: Vec<Option<u32>>,
-        captured: Vec<bool>,
-    }
-
-    impl World {
-        fn new(wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
-            let n = wolves.len();
-            let m = targets.len();
-            Self { params: Params::default(), wolves, targets, obstacles, wolf_target: vec![0; n], wolf_senses: vec![false; n], seen: vec![None; m], captured: vec![false; m] }
-        }
-        fn snap(&self) -> Snapshot<'_> {
-            Snapshot {
-                params: &self.params,
-                t: 0,
-                wolves: &self.wolves,
-                targets: &self.targets,
-                obstacles: &self.obstacles,
-                wolf_target: &self.wolf_target,
-                wolf_senses: &self.wolf_senses,
-                target_seen_at: &self.seen,
-                target_captured: &self.captured,
-            }
-        }
-    }
+    use crate::policies::fixture::Scene as World;
 
     fn item(kind: ItemKind, psi: f64, delta: f64, dist: f64) -> Item {
         Item { kind, psi, delta, dist }

@@ -90,7 +90,6 @@ pub fn flee(j: usize, snap: &Snapshot, t_seen: u32) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Params;
     use crate::math::{PI, TAU};
     use crate::world::{AgentState, Obstacle};
     use rand::RngCore;
@@ -119,37 +118,13 @@ mod tests {
         }
     }
 
-    struct World {
-        params: Params,
-        wolves: Vec<AgentState>,
-        targets: Vec<AgentState>,
-        obstacles: Vec<Obstacle>,
-        wolf_target: Vec<usize>,
-        wolf_senses: Vec<bool>,
-        seen: Vec<Option<u32>>,
-        captured: Vec<bool>,
-        t: u32,
-    }
+    use crate::policies::fixture::Scene as World;
 
-    impl World {
-        fn new(wolves: &[(f64, f64)], target: AgentState, seen: Option<u32>, t: u32) -> Self {
-            let wolves: Vec<AgentState> = wolves.iter().map(|&(x, y)| AgentState::at(x, y, 0.0)).collect();
-            let n = wolves.len();
-            Self { params: Params::default(), wolves, targets: vec![target], obstacles: vec![], wolf_target: vec![0; n], wolf_senses: vec![false; n], seen: vec![seen], captured: vec![false], t }
-        }
-        fn snap(&self) -> Snapshot<'_> {
-            Snapshot {
-                params: &self.params,
-                t: self.t,
-                wolves: &self.wolves,
-                targets: &self.targets,
-                obstacles: &self.obstacles,
-                wolf_target: &self.wolf_target,
-                wolf_senses: &self.wolf_senses,
-                target_seen_at: &self.seen,
-                target_captured: &self.captured,
-            }
-        }
+    fn scene(wolves: &[(f64, f64)], target: AgentState, seen: Option<u32>, t: u32) -> World {
+        let mut w = World::new(World::wolves_at(wolves), vec![target], vec![]);
+        w.seen = vec![seen];
+        w.t = t;
+        w
     }
 
     #[test]
@@ -166,13 +141,13 @@ mod tests {
     fn escape_wanders_before_the_first_sighting() {
         // Never seen: θ_d = π/12, v_d = 0.75 → saturator: e = 2π − π/12 ≥ 2π − 0.7 →
         // ω = (π/12)/0.1 = 2.61799, v = 0.75·(1 − 1/12) = 0.6875.
-        let w = World::new(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), None, 7);
+        let w = scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), None, 7);
         let mut rng = Fixed(vec![0.5, 0.75], 0);
         let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut rng);
         assert!(close(c.omega, PI / 12.0 / 0.1) && close(c.v, 0.6875), "{c:?}");
         assert_eq!(rng.1, 2, "two draws");
         // `random` wanders the same way even once seen.
-        let w = World::new(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7);
+        let w = scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7);
         let c = random_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.5, 0.75], 0));
         assert!(close(c.omega, PI / 12.0 / 0.1) && close(c.v, 0.6875), "{c:?}");
     }
@@ -183,7 +158,7 @@ mod tests {
         // (1, 0) + (0, 2) = (1, 2) → θ_d = atan2(2, 1) = 1.10715. Seen at 0, now t = 10:
         // curve 0.9·(2 − 1/(1 + e^{22.5})) = 1.8 → capped 1.5. Heading 0: e = 2π − 1.10715 ∈
         // (π, 2π − 0.7) → ω = +7, v = 1.5·(1 − 1.10715/π) = 0.971375.
-        let w = World::new(&[(-1.0, 0.0), (0.0, -2.0), (5.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 10);
+        let w = scene(&[(-1.0, 0.0), (0.0, -2.0), (5.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 10);
         let (v, th) = flee(0, &w.snap(), 0);
         assert!((v - 1.8).abs() < 1e-9 && close(th, 2f64.atan2(1.0)), "({v}, {th})");
         let mut rng = Fixed(vec![0.9], 0);
@@ -196,7 +171,7 @@ mod tests {
     fn fatigue_curve_sets_the_flight_speed() {
         // One wolf behind at (−1, 0), heading 0 = θ_d: no turn. Seen at 0, t = 120:
         // 0.9·(2 − 1/(1 + e^{−5})) = 0.906024.
-        let w = World::new(&[(-1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 120);
+        let w = scene(&[(-1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 120);
         let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
         assert!((c.v - 0.9060236).abs() < 1e-6 && close(c.omega, 0.0), "{c:?}");
     }
@@ -207,7 +182,7 @@ mod tests {
         // ratio f(110)/f(109) = 1.1004301/1.1420473 = 0.9635592 → v = 0.9635592, θ_d = 0.3.
         let mut a = AgentState::at(0.0, 0.0, 0.3);
         a.v = 1.0;
-        let w = World::new(&[(-4.0, 0.0)], a, Some(5), 110);
+        let w = scene(&[(-4.0, 0.0)], a, Some(5), 110);
         let (v, th) = flee(0, &w.snap(), 5);
         assert!((v - 0.9635592).abs() < 1e-6 && close(th, 0.3), "({v}, {th})");
         let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
@@ -216,7 +191,7 @@ mod tests {
 
     #[test]
     fn symmetric_wolves_keep_the_heading() {
-        let w = World::new(&[(-1.0, 0.0), (1.0, 0.0)], AgentState::at(0.0, 0.0, 2.0), Some(0), 3);
+        let w = scene(&[(-1.0, 0.0), (1.0, 0.0)], AgentState::at(0.0, 0.0, 2.0), Some(0), 3);
         let (_, th) = flee(0, &w.snap(), 0);
         assert_eq!(th, 2.0);
     }
@@ -227,7 +202,7 @@ mod tests {
         // θ_d = atan(0.1) = 0.0997; the heading 0.05 lies inside (−0.6797, 0.6797) (κ = 2.0,
         // Δ = asin(1/3)) and θ_d is nearer its upper edge → θ_d = 0.6897;
         // e = 2π − 0.6397 ≥ 2π − 0.7 → ω = 6.397.
-        let mut w = World::new(&[(-1.0, -0.1)], AgentState::at(0.0, 0.0, 0.05), Some(0), 200);
+        let mut w = scene(&[(-1.0, -0.1)], AgentState::at(0.0, 0.0, 0.05), Some(0), 200);
         w.obstacles.push(Obstacle::circle(Vec2::new(1.5, 0.0), 0.5, true));
         let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
         let edge = 2.0 * (1.0f64 / 3.0).asin() + 0.01;

@@ -65,3 +65,56 @@ pub struct WolfMemory {
 pub struct TargetMemory {
     pub danger: DangerMemory,
 }
+
+/// A hand-made scene for the laws' unit tests: owns what a [`Snapshot`] borrows.
+#[cfg(test)]
+pub(crate) mod fixture {
+    use super::Snapshot;
+    use crate::config::Params;
+    use crate::world::{AgentState, Obstacle};
+
+    pub struct Scene {
+        pub params: Params,
+        pub wolves: Vec<AgentState>,
+        pub targets: Vec<AgentState>,
+        pub obstacles: Vec<Obstacle>,
+        pub wolf_target: Vec<usize>,
+        pub wolf_senses: Vec<bool>,
+        pub seen: Vec<Option<u32>>,
+        pub captured: Vec<bool>,
+        pub t: u32,
+    }
+
+    impl Scene {
+        /// Default params, step 0; every wolf hunts target 0 and senses nothing; no target
+        /// has sighted a wolf or been captured. Tests set the fields they need.
+        pub fn new(wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
+            let (n, m) = (wolves.len(), targets.len());
+            Self { params: Params::default(), wolves, targets, obstacles, wolf_target: vec![0; n], wolf_senses: vec![false; n], seen: vec![None; m], captured: vec![false; m], t: 0 }
+        }
+
+        /// Wolves at the given points, heading 0.
+        pub fn wolves_at(points: &[(f64, f64)]) -> Vec<AgentState> {
+            points.iter().map(|&(x, y)| AgentState::at(x, y, 0.0)).collect()
+        }
+
+        pub fn snap(&self) -> Snapshot<'_> {
+            Snapshot {
+                params: &self.params,
+                t: self.t,
+                wolves: &self.wolves,
+                targets: &self.targets,
+                obstacles: &self.obstacles,
+                wolf_target: &self.wolf_target,
+                wolf_senses: &self.wolf_senses,
+                target_seen_at: &self.seen,
+                target_captured: &self.captured,
+            }
+        }
+
+        /// A zeroed interaction-matrix row.
+        pub fn row(&self) -> Vec<u8> {
+            vec![0; self.wolves.len() + self.targets.len()]
+        }
+    }
+}

@@ -132,10 +132,9 @@ pub fn repulsion(i: usize, snap: &Snapshot, nu1: Vec2, row: &mut [u8]) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Params;
     use crate::math::{FRAC_PI_2, PI};
     use crate::policies::saturator::saturate;
-    use crate::world::{AgentState, Obstacle};
+    use crate::world::AgentState;
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9
@@ -145,42 +144,14 @@ mod tests {
         (a - b).norm() < 1e-9
     }
 
-    struct World {
-        params: Params,
-        wolves: Vec<AgentState>,
-        targets: Vec<AgentState>,
-        obstacles: Vec<Obstacle>,
-        wolf_target: Vec<usize>,
-        wolf_senses: Vec<bool>,
-        seen: Vec<Option<u32>>,
-        captured: Vec<bool>,
-    }
+    use crate::policies::fixture::Scene as World;
 
-    impl World {
-        /// Wolves at the given points (heading 0), one target; sensing flags from r_w = 3.
-        fn new(wolves: &[(f64, f64)], target: (f64, f64)) -> Self {
-            let wolves: Vec<AgentState> = wolves.iter().map(|&(x, y)| AgentState::at(x, y, 0.0)).collect();
-            let t = AgentState::at(target.0, target.1, 0.0);
-            let senses = wolves.iter().map(|w| (w.pos - t.pos).norm() <= 3.0).collect();
-            let n = wolves.len();
-            Self { params: Params::default(), wolves, targets: vec![t], obstacles: vec![], wolf_target: vec![0; n], wolf_senses: senses, seen: vec![None], captured: vec![false] }
-        }
-        fn snap(&self) -> Snapshot<'_> {
-            Snapshot {
-                params: &self.params,
-                t: 0,
-                wolves: &self.wolves,
-                targets: &self.targets,
-                obstacles: &self.obstacles,
-                wolf_target: &self.wolf_target,
-                wolf_senses: &self.wolf_senses,
-                target_seen_at: &self.seen,
-                target_captured: &self.captured,
-            }
-        }
-        fn row(&self) -> Vec<u8> {
-            vec![0; self.wolves.len() + self.targets.len()]
-        }
+    /// Wolves at the given points (heading 0), one target; sensing flags from r_w = 3.
+    fn scene(wolves: &[(f64, f64)], target: (f64, f64)) -> World {
+        let t = AgentState::at(target.0, target.1, 0.0);
+        let mut w = World::new(World::wolves_at(wolves), vec![t], vec![]);
+        w.wolf_senses = w.wolves.iter().map(|a| (a.pos - t.pos).norm() <= 3.0).collect();
+        w
     }
 
     const TAU1: f64 = 2.114010945835207;
@@ -192,14 +163,14 @@ mod tests {
     #[test]
     fn attraction_towards_a_sensed_target() {
         // d = 2: (2 − 0.65)·(2, 0)/2^τ1 = (2.7/2^τ1, 0) = (0.623711…, 0).
-        let w = World::new(&[(0.0, 0.0)], (2.0, 0.0));
+        let w = scene(&[(0.0, 0.0)], (2.0, 0.0));
         let mut row = w.row();
         let a = attraction(0, &w.snap(), Vec2::new(5.0, 5.0), &mut row);
         assert!(vclose(a, Vec2::new(2.7 / 2f64.powf(TAU1), 0.0)), "{a}");
         assert!((a.x - 0.6237105).abs() < 1e-6, "{a}");
         assert_eq!(row, [0, 0]);
         // Inside r_h (d = 0.5) the attraction points away: (0.5 − 0.65)·(0.5, 0)/0.5^τ1.
-        let w = World::new(&[(0.0, 0.0)], (0.5, 0.0));
+        let w = scene(&[(0.0, 0.0)], (0.5, 0.0));
         let a = attraction(0, &w.snap(), Vec2::zeros(), &mut w.row());
         assert!(vclose(a, Vec2::new(-0.15 * 0.5 / 0.5f64.powf(TAU1), 0.0)), "{a}");
         assert!(a.x < 0.0);
@@ -210,7 +181,7 @@ mod tests {
         // Target at (6, 0), 6 away from wolf 0: not sensed. Wolves 1 (at (6, 2.5), 6.5 from
         // wolf 0) and 2 (at (4, 0), 4 from wolf 0) sense it; wolf 3 at (1, 0) is nearest but
         // does not. Follow wolf 2: ς·(4, 0)·4^τ2 = (0.38694·4·4^−0.67885, 0) = (0.603942, 0).
-        let w = World::new(&[(0.0, 0.0), (6.0, 2.5), (4.0, 0.0), (1.0, 0.0)], (6.0, 0.0));
+        let w = scene(&[(0.0, 0.0), (6.0, 2.5), (4.0, 0.0), (1.0, 0.0)], (6.0, 0.0));
         assert_eq!(w.wolf_senses, [false, true, true, false]);
         let mut row = w.row();
         let a = attraction(0, &w.snap(), Vec2::zeros(), &mut row);
@@ -222,7 +193,7 @@ mod tests {
 
     #[test]
     fn a_partner_hunting_another_target_is_not_followed() {
-        let mut w = World::new(&[(0.0, 0.0), (8.0, 0.0)], (10.0, 0.0));
+        let mut w = scene(&[(0.0, 0.0), (8.0, 0.0)], (10.0, 0.0));
         w.targets.push(AgentState::at(-10.0, 0.0, 0.0));
         w.wolf_target = vec![1, 0];
         w.wolf_senses = vec![false, true];
@@ -234,7 +205,7 @@ mod tests {
     #[test]
     fn attraction_fallback_keeps_the_direction_at_lost_speed() {
         // Nobody senses: previous (3, 4) → 1.5·(0.6, 0.8) = (0.9, 1.2).
-        let w = World::new(&[(0.0, 0.0), (1.0, 0.0)], (9.0, 9.0));
+        let w = scene(&[(0.0, 0.0), (1.0, 0.0)], (9.0, 9.0));
         let mut row = w.row();
         let a = attraction(0, &w.snap(), Vec2::new(3.0, 4.0), &mut row);
         assert!(vclose(a, Vec2::new(0.9, 1.2)), "{a}");
@@ -245,7 +216,7 @@ mod tests {
 
     #[test]
     fn coincident_agents_do_not_make_nan() {
-        let w = World::new(&[(1.0, 1.0), (1.0, 1.0)], (1.0, 1.0));
+        let w = scene(&[(1.0, 1.0), (1.0, 1.0)], (1.0, 1.0));
         let a = attraction(0, &w.snap(), Vec2::zeros(), &mut w.row());
         assert_eq!(a, Vec2::zeros());
         let r = repulsion(0, &w.snap(), a, &mut w.row());
@@ -267,7 +238,7 @@ mod tests {
 
     #[test]
     fn repulsion_with_no_neighbour_in_range() {
-        let w = World::new(&[(0.0, 0.0), (5.0, 0.0), (0.0, -4.0)], (9.0, 9.0));
+        let w = scene(&[(0.0, 0.0), (5.0, 0.0), (0.0, -4.0)], (9.0, 9.0));
         let mut row = w.row();
         assert_eq!(repulsion(0, &w.snap(), Vec2::new(1.0, 0.0), &mut row), Vec2::zeros());
         assert_eq!(row, [0, 0, 0, 0]);
@@ -277,7 +248,7 @@ mod tests {
     fn repulsion_with_one_neighbour_in_range() {
         // Attraction +x → u = (0, −1). Neighbour p at (1, 2) (d = √5 < 3), q at (0, −4)
         // (d = 4, out of range). L = (−1, −2)/√5^τ3; L·u = 2/√5^τ3; ν2 = (0, −2/√5^τ3).
-        let w = World::new(&[(0.0, 0.0), (1.0, 2.0), (0.0, -4.0)], (9.0, 9.0));
+        let w = scene(&[(0.0, 0.0), (1.0, 2.0), (0.0, -4.0)], (9.0, 9.0));
         let mut row = w.row();
         let r = repulsion(0, &w.snap(), Vec2::new(1.0, 0.0), &mut row);
         let want = -2.0 / 5f64.sqrt().powf(TAU3);
@@ -291,7 +262,7 @@ mod tests {
         // Attraction +y → u = (1, 0): only x components count.
         // p = (1, 0) (d = 1): (−1, 0)/1 → −1; q = (−2, 0) (d = 2): (2, 0)/2^τ3 → +2/2^τ3;
         // a third at (0, 2.5) is not among the two nearest. ν2 = (−1 + 2^(1−τ3), 0).
-        let w = World::new(&[(0.0, 0.0), (1.0, 0.0), (-2.0, 0.0), (0.0, 2.5)], (0.0, 2.0));
+        let w = scene(&[(0.0, 0.0), (1.0, 0.0), (-2.0, 0.0), (0.0, 2.5)], (0.0, 2.0));
         let mut row = w.row();
         let r = repulsion(0, &w.snap(), Vec2::new(0.0, 1.0), &mut row);
         let want = -1.0 + 2f64.powf(1.0 - TAU3);
@@ -302,7 +273,7 @@ mod tests {
     #[test]
     fn repulsion_with_zero_attraction_uses_minus_y() {
         // u = (0, −1); neighbour at (0, 1): L = (0, −1) → L·u = 1 → ν2 = (0, −1).
-        let w = World::new(&[(0.0, 0.0), (0.0, 1.0)], (9.0, 9.0));
+        let w = scene(&[(0.0, 0.0), (0.0, 1.0)], (9.0, 9.0));
         let r = repulsion(0, &w.snap(), Vec2::zeros(), &mut w.row());
         assert!(vclose(r, Vec2::new(0.0, -1.0)), "{r}");
     }
@@ -310,7 +281,7 @@ mod tests {
     #[test]
     fn equal_distances_do_not_panic_and_pick_lower_indices() {
         // Three neighbours at distance 1: p = wolf 1, q = wolf 2 (lowest indices).
-        let w = World::new(&[(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0)], (9.0, 9.0));
+        let w = scene(&[(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0)], (9.0, 9.0));
         let mut row = w.row();
         // u = (0, −1): wolves 1 and 2 push along x only → L·u = 0.
         let r = repulsion(0, &w.snap(), Vec2::new(1.0, 0.0), &mut row);
@@ -325,7 +296,7 @@ mod tests {
         // Wolf 0 at origin heading 0, target at (2, 0); wolf 1 at (0, 2) (d = 2 < r_w).
         // ν1 = (2.7/2^τ1, 0); u = (0, −1); L = (0, −2)/2^τ3 → ν2 = (0, −2/2^τ3).
         // ν = α ν1 + β ν2; no item (wolf 1 is 2 m away, walls far) → saturator.
-        let mut w = World::new(&[(0.0, 0.0), (0.0, 2.0)], (2.0, 0.0));
+        let mut w = scene(&[(0.0, 0.0), (0.0, 2.0)], (2.0, 0.0));
         w.wolves[0].theta = 0.0;
         let s = &w.params.seed000;
         let nu = Vec2::new(s.alpha * 2.7 / 2f64.powf(TAU1), -s.beta * 2.0 / 2f64.powf(TAU3));
@@ -345,7 +316,7 @@ mod tests {
     #[test]
     fn zero_desire_keeps_heading_and_stands() {
         // First step, nothing sensed, no neighbour in range: ν = 0 → v = 0, ω = 0.
-        let mut w = World::new(&[(0.0, 0.0), (5.0, 5.0)], (9.0, -9.0));
+        let mut w = scene(&[(0.0, 0.0), (5.0, 5.0)], (9.0, -9.0));
         w.wolves[0].theta = FRAC_PI_2;
         let c = wolf_command(0, &w.snap(), &mut WolfMemory::default(), &mut w.row());
         assert_eq!(c, Command { v: 0.0, omega: 0.0 });
@@ -355,7 +326,7 @@ mod tests {
     fn fallback_remembers_across_steps() {
         // Sensed at step 1, lost at step 2: the direction of step 1 at 1.5 (then α·1.5 = 7.6
         // → v_max after the saturator when aligned).
-        let mut w = World::new(&[(0.0, 0.0)], (0.0, 2.0));
+        let mut w = scene(&[(0.0, 0.0)], (0.0, 2.0));
         w.wolves[0].theta = FRAC_PI_2;
         let mut mem = WolfMemory::default();
         wolf_command(0, &w.snap(), &mut mem, &mut w.row());
