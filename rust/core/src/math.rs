@@ -15,6 +15,21 @@ pub use std::f64::consts::{FRAC_PI_2, PI, TAU};
 /// Maps an angle into [0, 2π) (SPEC's `wrap`).
 #[inline]
 pub fn wrap(a: f64) -> f64 {
+    // Fast paths for the common case of an angle within one turn of [0, 2π). Both are exact
+    // and equal to `rem_euclid` there: `a + TAU` is what rem_euclid returns for a ∈ (−2π, 0),
+    // and `a − TAU` is exact for a ∈ [2π, 4π) (Sterbenz), as fmod is. Saves the fmod call
+    // that profiling found at ~4% of a step.
+    if (0.0..TAU).contains(&a) {
+        return a;
+    }
+    // Open at −2π: there rem_euclid gives −0.0, and that sign must be kept bit for bit.
+    if a > -TAU && a < 0.0 {
+        let r = a + TAU;
+        return if r >= TAU { 0.0 } else { r };
+    }
+    if (TAU..2.0 * TAU).contains(&a) {
+        return a - TAU;
+    }
     let r = a.rem_euclid(TAU);
     // rem_euclid can return TAU itself for tiny negative inputs after rounding.
     if r >= TAU {
@@ -65,6 +80,21 @@ mod tests {
         assert!((wrap(TAU + 0.25) - 0.25).abs() < 1e-15);
         assert_eq!(wrap(TAU), 0.0);
         assert!(wrap(-1e-300) < TAU);
+    }
+
+    #[test]
+    fn fast_paths_agree_with_rem_euclid() {
+        let mut a = -3.0 * TAU;
+        while a < 3.0 * TAU {
+            let r = a.rem_euclid(TAU);
+            let want = if r >= TAU { 0.0 } else { r };
+            assert_eq!(wrap(a).to_bits(), want.to_bits(), "{a}");
+            a += 0.0123456789;
+        }
+        for a in [-TAU, -1e-300, -0.0, TAU, 2.0 * TAU - 1e-15, f64::from_bits(TAU.to_bits() - 1)] {
+            let r = a.rem_euclid(TAU);
+            assert_eq!(wrap(a).to_bits(), (if r >= TAU { 0.0 } else { r }).to_bits(), "{a}");
+        }
     }
 
     #[test]
