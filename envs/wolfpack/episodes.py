@@ -7,7 +7,6 @@ results do not depend on the number of threads.
 from __future__ import annotations
 
 import statistics
-import time
 from typing import Any, Callable, Iterable
 
 from wolfpack import _core
@@ -73,9 +72,3 @@ def summarize(results: Iterable[dict[str, Any]], elapsed_s: float | None = None)
         "env_steps_per_second": (steps / elapsed_s) if elapsed_s and elapsed_s > 0 else None,
         "total_steps": steps,
     }
-
-
-def timed(fn: Callable[[], Any]) -> tuple[Any, float]:
-    t0 = time.perf_counter()
-    out = fn()
-    return out, time.perf_counter() - t0

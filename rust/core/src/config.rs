@@ -139,6 +139,14 @@ impl Default for BodyParams {
     }
 }
 
+impl BodyParams {
+    /// Two bodies whose pose points are farther apart than this cannot touch (every vertex lies
+    /// within max(height, base) of its pose point): the cheap cull before an exact overlap test.
+    pub fn reach(&self) -> f64 {
+        2.0 * self.height.max(self.base)
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct AgentsParams {

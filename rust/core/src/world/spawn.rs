@@ -17,7 +17,7 @@ use crate::math::{unit, Vec2, TAU};
 /// Minimum centre distance between two spawned wolves (their bodies cannot touch, and no wolf
 /// starts in close-partner steering): the larger of twice the body size and 0.5 m.
 fn wolf_spacing(p: &Params) -> f64 {
-    (2.0 * p.agents.body.height.max(p.agents.body.base)).max(0.5)
+    p.agents.body.reach().max(0.5)
 }
 
 type Spawned = (Vec<AgentState>, Vec<AgentState>, Vec<Obstacle>);

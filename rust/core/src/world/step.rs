@@ -184,7 +184,7 @@ impl World {
             return false;
         }
         let body = body_triangle(pos, theta, p.agents.body.base, p.agents.body.height);
-        let reach = 2.0 * p.agents.body.height.max(p.agents.body.base);
+        let reach = p.agents.body.reach();
         if self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
             return false;
         }
@@ -228,7 +228,7 @@ impl World {
     fn judge(&mut self) {
         let p = self.params.clone();
         let n = self.n_wolves();
-        let reach = 2.0 * p.agents.body.height.max(p.agents.body.base);
+        let reach = p.agents.body.reach();
         let mut wolf_collided = false;
         for i in 0..n {
             let body = self.bodies[i];
