@@ -23,6 +23,10 @@ pub struct Params {
     pub seed000: Seed000Params,
     pub avoidance: AvoidanceParams,
     pub escape: EscapeParams,
+    /// The learning interface (issue 3): action mode and observations.
+    pub env: EnvParams,
+    /// Rewards of the learning interface, per side.
+    pub rewards: RewardParams,
 }
 
 /// Arena, clock and agent counts (SPEC §1.1–§1.3).
@@ -394,6 +398,95 @@ impl EscapeParams {
     }
 }
 
+/// How a learner's action `a ∈ [-1, 1]²` becomes a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ActionMode {
+    /// `v = (a₀ + 1)/2 · v_max`, `ω = a₁ · ω_max`.
+    Unicycle,
+    /// `a` is a desired velocity in the agent frame (x ahead, y left) in units of v_max
+    /// (norm capped at 1); it goes through the saturator (SPEC §2) like an analytic law's.
+    Velocity,
+}
+
+/// Lidar of the observations: `rays` rays evenly spaced from the heading, counter-clockwise,
+/// cast against obstacles and walls up to `range`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LidarParams {
+    pub rays: usize,
+    /// Metres; a ray that hits nothing reads 1 (distance / range).
+    pub range: f64,
+}
+
+impl Default for LidarParams {
+    fn default() -> Self {
+        Self { rays: 16, range: 3.0 }
+    }
+}
+
+/// The learning interface: action mapping and observation content.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EnvParams {
+    pub action_mode: ActionMode,
+    pub lidar: LidarParams,
+    /// Append the agent's row of the interaction matrix (N+M entries, 0/1, from the last step).
+    pub interaction_row: bool,
+}
+
+impl Default for EnvParams {
+    fn default() -> Self {
+        Self { action_mode: ActionMode::Unicycle, lidar: LidarParams::default(), interaction_row: false }
+    }
+}
+
+/// Wolf rewards (each wolf, each step).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WolfRewards {
+    /// To every wolf at the step a target is captured (team reward).
+    pub capture_bonus: f64,
+    /// Potential-based shaping `shaping · (Φ(s') − Φ(s))` with `Φ = −|d − r_h|`, d the wolf's
+    /// distance to its target and r_h `seed000.radius`; Φ = 0 in a terminal state.
+    pub shaping: f64,
+    /// Subtracted from a wolf at a step its body overlaps an obstacle or another wolf.
+    pub collision_penalty: f64,
+    /// Subtracted from every wolf at every step.
+    pub time_penalty: f64,
+}
+
+impl Default for WolfRewards {
+    fn default() -> Self {
+        Self { capture_bonus: 10.0, shaping: 1.0, collision_penalty: 10.0, time_penalty: 0.01 }
+    }
+}
+
+/// Target rewards (each target, each step).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TargetRewards {
+    /// Per step survived uncaptured.
+    pub survival: f64,
+    /// Subtracted at the step the target is captured.
+    pub capture_penalty: f64,
+    /// Subtracted at a step its body overlaps an obstacle (a moving obstacle can hit it).
+    pub collision_penalty: f64,
+}
+
+impl Default for TargetRewards {
+    fn default() -> Self {
+        Self { survival: 0.1, capture_penalty: 10.0, collision_penalty: 10.0 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct RewardParams {
+    pub wolves: WolfRewards,
+    pub targets: TargetRewards,
+}
+
 fn bad(key: &str, why: impl std::fmt::Display) -> Error {
     Error::Params(format!("{key}: {why}"))
 }
@@ -560,6 +653,24 @@ impl Params {
         positive("escape.fatigue_base", e.fatigue_base)?;
         finite("escape.fatigue_slope", e.fatigue_slope)?;
         finite("escape.fatigue_delay", e.fatigue_delay)?;
+
+        let l = &self.env.lidar;
+        if l.rays > 1024 {
+            return Err(bad("env.lidar.rays", format!("must be <= 1024, got {}", l.rays)));
+        }
+        positive("env.lidar.range", l.range)?;
+        let r = &self.rewards;
+        for (k, x) in [
+            ("wolves.capture_bonus", r.wolves.capture_bonus),
+            ("wolves.shaping", r.wolves.shaping),
+            ("wolves.collision_penalty", r.wolves.collision_penalty),
+            ("wolves.time_penalty", r.wolves.time_penalty),
+            ("targets.survival", r.targets.survival),
+            ("targets.capture_penalty", r.targets.capture_penalty),
+            ("targets.collision_penalty", r.targets.collision_penalty),
+        ] {
+            finite(&format!("rewards.{k}"), x)?;
+        }
 
         if self.policies.wolves != WolfPolicy::Seed000 {
             let name = match self.policies.wolves {

@@ -3,12 +3,15 @@
 //! The layout follows SPEC.md: [`world`] (§1), [`policies`] (§2–§5), [`episode`] (§8 outcomes
 //! and logs). Python bindings live in a separate crate; nothing here knows of Python.
 
+pub mod batch;
 pub mod config;
 pub mod episode;
 pub mod error;
 pub mod geometry;
 pub mod math;
+pub mod observe;
 pub mod policies;
+pub mod reward;
 pub mod world;
 
 pub use config::Params;

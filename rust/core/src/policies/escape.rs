@@ -32,23 +32,34 @@ use crate::math::{angle_of, wrap, Vec2};
 
 /// The `escape` law for target `j`.
 pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> Command {
+    let (v_d, theta_d) = escape_desired(j, snap, mem, rng);
+    saturate_target(j, snap, v_d, theta_d)
+}
+
+/// The `escape` law up to the saturator: the desired (v_d, θ_d) after avoidance.
+pub fn escape_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> (f64, f64) {
     let (v_d, theta_d) = match snap.target_seen_at[j] {
         None => wander(snap.targets[j].theta, &snap.params.escape, rng),
         Some(t_seen) => flee(j, snap, t_seen),
     };
-    finish(j, snap, mem, v_d, theta_d)
+    avoidance::target(j, snap, v_d, theta_d, &mut mem.danger)
 }
 
 /// The `random` law for target `j`: the wander rule forever.
 pub fn random_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> Command {
-    let (v_d, theta_d) = wander(snap.targets[j].theta, &snap.params.escape, rng);
-    finish(j, snap, mem, v_d, theta_d)
+    let (v_d, theta_d) = random_desired(j, snap, mem, rng);
+    saturate_target(j, snap, v_d, theta_d)
 }
 
-/// Avoidance (target variant) and the saturator with the target's limits.
-fn finish(j: usize, snap: &Snapshot, mem: &mut TargetMemory, v_d: f64, theta_d: f64) -> Command {
+/// The `random` law up to the saturator.
+pub fn random_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> (f64, f64) {
+    let (v_d, theta_d) = wander(snap.targets[j].theta, &snap.params.escape, rng);
+    avoidance::target(j, snap, v_d, theta_d, &mut mem.danger)
+}
+
+/// The saturator with the target's limits.
+pub fn saturate_target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64) -> Command {
     let p = snap.params;
-    let (v_d, theta_d) = avoidance::target(j, snap, v_d, theta_d, &mut mem.danger);
     let side = &p.agents.target;
     saturate(v_d, theta_d, snap.targets[j].theta, side.v_max, side.omega_max, p.world.ts)
 }

@@ -13,7 +13,9 @@ pub mod escape;
 pub mod saturator;
 pub mod seed000;
 
-use crate::config::Params;
+use rand::Rng;
+
+use crate::config::{Params, TargetPolicy, WolfPolicy};
 use crate::math::Vec2;
 use crate::world::{AgentState, Obstacle};
 
@@ -41,6 +43,28 @@ pub struct Snapshot<'a> {
     /// First step at which target j sensed a wolf (`None`: never yet).
     pub target_seen_at: &'a [Option<u32>],
     pub target_captured: &'a [bool],
+}
+
+/// The configured wolf law up to the saturator: wolf i's desired (v_d, θ_d).
+pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
+    match snap.params.policies.wolves {
+        WolfPolicy::Seed000 => seed000::wolf_desired(i, snap, mem, row),
+        // Rejected by `Params::validate` until they are implemented.
+        WolfPolicy::Bvc | WolfPolicy::Formation => (0.0, snap.wolves[i].theta),
+    }
+}
+
+/// The configured target law up to the saturator: target j's desired (v_d, θ_d). A captured
+/// target and `still` ask for nothing (v_d = 0 along the current heading: v = ω = 0).
+pub fn target_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> (f64, f64) {
+    if snap.target_captured[j] {
+        return (0.0, snap.targets[j].theta);
+    }
+    match snap.params.policies.targets {
+        TargetPolicy::Escape => escape::escape_desired(j, snap, mem, rng),
+        TargetPolicy::Random => escape::random_desired(j, snap, mem, rng),
+        TargetPolicy::Still => (0.0, snap.targets[j].theta),
+    }
 }
 
 /// An emergency (SPEC §4) lasts several steps; the law remembers where it flees.

@@ -27,6 +27,15 @@ use crate::math::{angle_of, Vec2};
 /// The command of wolf `i` for this step. Marks in `row` (wolf i's row of the interaction
 /// matrix) every other wolf whose information the law used.
 pub fn wolf_command(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> Command {
+    let (v_d, theta_d) = wolf_desired(i, snap, mem, row);
+    let p = snap.params;
+    let side = &p.agents.wolf;
+    saturate(v_d, theta_d, snap.wolves[i].theta, side.v_max, side.omega_max, p.world.ts)
+}
+
+/// The law up to the saturator: the desired (v_d, θ_d) after obstacle avoidance. This is what
+/// a learner in `velocity` action mode imitates.
+pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
     let p = snap.params;
     let s = &p.seed000;
     let me = snap.wolves[i];
@@ -37,9 +46,7 @@ pub fn wolf_command(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [
     let nu = s.alpha * nu1 + s.beta * nu2;
 
     let (v_d, theta_d) = if nu == Vec2::zeros() { (0.0, me.theta) } else { (nu.norm(), angle_of(nu)) };
-    let (v_d, theta_d) = avoidance::wolf(i, snap, v_d, theta_d, &mut mem.danger, row);
-    let side = &p.agents.wolf;
-    saturate(v_d, theta_d, me.theta, side.v_max, side.omega_max, p.world.ts)
+    avoidance::wolf(i, snap, v_d, theta_d, &mut mem.danger, row)
 }
 
 /// Attraction ν_i1 (SPEC §3, source eq. 5). `last` is the previous step's ν_i1.

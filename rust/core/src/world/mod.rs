@@ -3,6 +3,7 @@
 mod layout;
 mod obstacles;
 mod spawn;
+mod expert;
 mod step;
 
 pub use layout::{Layout, LayoutObstacle};
@@ -65,13 +66,17 @@ impl Outcome {
 // Streams of the per-world ChaCha generator: spawning, obstacle motion and the scripted laws
 // draw from separate streams, so a learned controller (which draws nothing) sees the same
 // obstacle motion as the scripted one for the same seed.
+// Episode k of a world seeded `seed` uses streams 4k + 0..3 of the same key (episode 0 is the
+// plain `seed`), so the batch's autoreset episodes of world i depend on its seed alone — not on
+// the batch size or how the batch is split.
 const STREAM_SPAWN: u64 = 0;
 const STREAM_MOTION: u64 = 1;
 const STREAM_POLICY: u64 = 2;
+const STREAMS_PER_EPISODE: u64 = 4;
 
-fn stream(seed: u64, s: u64) -> ChaCha8Rng {
+fn stream(seed: u64, episode: u64, s: u64) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed);
-    r.set_stream(s);
+    r.set_stream(episode.wrapping_mul(STREAMS_PER_EPISODE).wrapping_add(s));
     r
 }
 
@@ -96,27 +101,43 @@ pub struct World {
     /// Steps each agent (wolves, then targets) spent overlapping an obstacle or a wolf.
     pub collisions: Vec<u32>,
     pub outcome: Outcome,
+    /// Run the scripted law of a side even while given commands drive it, so that its memory
+    /// follows the episode (for [`World::expert_desired`], imitation learning). Off by default:
+    /// it costs a law evaluation per agent and step.
+    pub track_laws: bool,
     rng_motion: ChaCha8Rng,
     rng_policy: ChaCha8Rng,
     // Per-step scratch, kept to avoid allocation on the hot path.
     wolf_cmds: Vec<Command>,
     target_cmds: Vec<Command>,
     bodies: Vec<[Vec2; 3]>,
+    scratch_row: Vec<u8>,
 }
 
 impl World {
     /// A world spawned at random from `seed` (SPEC §1.3 spawn rules).
     pub fn new(params: Arc<Params>, seed: u64) -> Result<Self> {
+        Self::new_episode(params, seed, 0)
+    }
+
+    /// Episode `episode` of the world seeded `seed`: independent random streams for every
+    /// episode; episode 0 is [`World::new`].
+    pub fn new_episode(params: Arc<Params>, seed: u64, episode: u64) -> Result<Self> {
         params.validate()?;
-        let mut rng = stream(seed, STREAM_SPAWN);
+        let mut rng = stream(seed, episode, STREAM_SPAWN);
         let (wolves, targets, obstacles) = spawn::spawn(&params, &mut rng)?;
-        Ok(Self::assemble(params, seed, wolves, targets, obstacles))
+        Ok(Self::assemble(params, seed, episode, wolves, targets, obstacles))
     }
 
     /// A world started from an explicit layout. The layout's agent counts replace
     /// `world.wolves` / `world.targets` (a `null` capture count follows them); its obstacles
     /// are the whole obstacle set. `seed` drives obstacle motion and the scripted laws.
     pub fn from_layout(params: Arc<Params>, seed: u64, layout: &Layout) -> Result<Self> {
+        Self::from_layout_episode(params, seed, 0, layout)
+    }
+
+    /// [`World::from_layout`] with the random streams of episode `episode`.
+    pub fn from_layout_episode(params: Arc<Params>, seed: u64, episode: u64, layout: &Layout) -> Result<Self> {
         let (n, m) = (layout.wolves.len(), layout.targets.len());
         if n == 0 || m == 0 {
             let who = if n == 0 { "wolf" } else { "target" };
@@ -129,10 +150,10 @@ impl World {
         };
         params.validate().map_err(|e| crate::error::Error::Layout(e.to_string()))?;
         let (wolves, targets, obstacles) = spawn::from_layout(&params, layout)?;
-        Ok(Self::assemble(params, seed, wolves, targets, obstacles))
+        Ok(Self::assemble(params, seed, episode, wolves, targets, obstacles))
     }
 
-    fn assemble(params: Arc<Params>, seed: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
+    fn assemble(params: Arc<Params>, seed: u64, episode: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
         let (n, m) = (wolves.len(), targets.len());
         let mut w = Self {
             params,
@@ -150,11 +171,13 @@ impl World {
             interaction: vec![0; (n + m) * (n + m)],
             collisions: vec![0; n + m],
             outcome: Outcome::Running,
-            rng_motion: stream(seed, STREAM_MOTION),
-            rng_policy: stream(seed, STREAM_POLICY),
+            track_laws: false,
+            rng_motion: stream(seed, episode, STREAM_MOTION),
+            rng_policy: stream(seed, episode, STREAM_POLICY),
             wolf_cmds: vec![Command::default(); n],
             target_cmds: vec![Command::default(); m],
             bodies: Vec::with_capacity(n),
+            scratch_row: vec![0; n + m],
         };
         w.assign_targets();
         w

@@ -4,10 +4,11 @@
 use parry2d_f64::transformation::convex_hull;
 
 use super::{AgentState, Outcome, World};
-use crate::config::{CaptureRule, SideParams, TargetPolicy, WolfPolicy};
+use crate::config::{CaptureRule, SideParams};
 use crate::geometry::{body_triangle, triangle_contains, triangles_overlap};
 use crate::math::{unit, wrap, Point2, Vec2};
-use crate::policies::{escape, seed000, Command, Snapshot};
+use crate::policies::saturator::saturate;
+use crate::policies::{self, Command, Snapshot};
 
 /// Below this speed an infeasible wolf stops halving and only turns (SPEC §1.5).
 const MIN_HALVED_SPEED: f64 = 0.01;
@@ -47,19 +48,7 @@ impl World {
 
     /// Each wolf hunts its nearest uncaptured target (ties: lowest index).
     pub(super) fn assign_targets(&mut self) {
-        for (i, w) in self.wolves.iter().enumerate() {
-            let mut best = (f64::INFINITY, self.wolf_target[i]);
-            for (j, t) in self.targets.iter().enumerate() {
-                if self.target_captured[j] {
-                    continue;
-                }
-                let d = (t.pos - w.pos).norm_squared();
-                if d < best.0 {
-                    best = (d, j);
-                }
-            }
-            self.wolf_target[i] = best.1;
-        }
+        nearest_uncaptured(&self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target);
     }
 
     /// Sensing flags, first sightings and the sensing entries of the interaction matrix.
@@ -95,6 +84,8 @@ impl World {
     }
 
     /// Step 2: every controller reads the same snapshot; commands land in the scratch buffers.
+    /// A side driven by given commands still runs its law when `track_laws` is set, so that
+    /// the law's memory (and its random stream) follows the episode for `expert_desired`.
     fn control(&mut self, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) {
         let (n, k) = (self.n_wolves(), self.n_wolves() + self.n_targets());
         let snap = Snapshot {
@@ -108,29 +99,30 @@ impl World {
             target_seen_at: &self.target_seen_at,
             target_captured: &self.target_captured,
         };
-        match wolf_cmds {
-            Some(c) => self.wolf_cmds.copy_from_slice(c),
-            None => {
-                debug_assert_eq!(self.params.policies.wolves, WolfPolicy::Seed000);
-                for i in 0..n {
-                    let row = &mut self.interaction[i * k..(i + 1) * k];
-                    self.wolf_cmds[i] = seed000::wolf_command(i, &snap, &mut self.wolf_memory[i], row);
+        let wolf_side = &self.params.agents.wolf;
+        let target_side = &self.params.agents.target;
+        let ts = self.params.world.ts;
+        if let Some(c) = wolf_cmds {
+            self.wolf_cmds.copy_from_slice(c);
+        }
+        if wolf_cmds.is_none() || self.track_laws {
+            for i in 0..n {
+                // A tracked (not driving) law must not mark the interaction matrix.
+                let row: &mut [u8] = if wolf_cmds.is_none() { &mut self.interaction[i * k..(i + 1) * k] } else { &mut self.scratch_row };
+                let (v_d, theta_d) = policies::wolf_desired(i, &snap, &mut self.wolf_memory[i], row);
+                if wolf_cmds.is_none() {
+                    self.wolf_cmds[i] = saturate(v_d, theta_d, snap.wolves[i].theta, wolf_side.v_max, wolf_side.omega_max, ts);
                 }
             }
         }
-        match target_cmds {
-            Some(c) => self.target_cmds.copy_from_slice(c),
-            None => {
-                for j in 0..self.targets.len() {
-                    self.target_cmds[j] = if self.target_captured[j] {
-                        Command::default()
-                    } else {
-                        match self.params.policies.targets {
-                            TargetPolicy::Escape => escape::escape_command(j, &snap, &mut self.target_memory[j], &mut self.rng_policy),
-                            TargetPolicy::Random => escape::random_command(j, &snap, &mut self.target_memory[j], &mut self.rng_policy),
-                            TargetPolicy::Still => Command::default(),
-                        }
-                    };
+        if let Some(c) = target_cmds {
+            self.target_cmds.copy_from_slice(c);
+        }
+        if target_cmds.is_none() || self.track_laws {
+            for j in 0..self.targets.len() {
+                let (v_d, theta_d) = policies::target_desired(j, &snap, &mut self.target_memory[j], &mut self.rng_policy);
+                if target_cmds.is_none() {
+                    self.target_cmds[j] = saturate(v_d, theta_d, snap.targets[j].theta, target_side.v_max, target_side.omega_max, ts);
                 }
             }
         }
@@ -295,6 +287,24 @@ fn clamp(c: Command, s: &SideParams) -> Command {
     Command { v: c.v.clamp(0.0, s.v_max), omega: c.omega.clamp(-s.omega_max, s.omega_max) }
 }
 
+/// Each wolf's nearest uncaptured target (ties: lowest index); a wolf keeps its entry when
+/// every target is captured.
+pub(super) fn nearest_uncaptured(wolves: &[AgentState], targets: &[AgentState], captured: &[bool], wolf_target: &mut [usize]) {
+    for (i, w) in wolves.iter().enumerate() {
+        let mut best = (f64::INFINITY, wolf_target[i]);
+        for (j, t) in targets.iter().enumerate() {
+            if captured[j] {
+                continue;
+            }
+            let d = (t.pos - w.pos).norm_squared();
+            if d < best.0 {
+                best = (d, j);
+            }
+        }
+        wolf_target[i] = best.1;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -307,3 +317,4 @@ mod tests {
         assert!(!encircled(&ring[..2], Vec2::zeros()));
     }
 }
+

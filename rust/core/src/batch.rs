@@ -1,0 +1,545 @@
+//! The native batch: E worlds stepped together on a rayon pool — the one engine behind the
+//! PettingZoo, Gymnasium and SB3 adapters.
+//!
+//! - World i is seeded `seed + i`; its k-th episode uses the random streams of episode k of that
+//!   seed ([`World::new_episode`]), so every world's sequence of episodes depends on its own
+//!   seed alone: results are bit-identical for any thread count and any way the batch is split.
+//! - Learners (one side, both or none) act through `[-1, 1]²` actions (params `env.action_mode`);
+//!   the other side is driven by its scripted law inside the core.
+//! - With `autoreset`, a world that finishes is reset in the same step (SB3's convention): the
+//!   step returns the new episode's first observation, the finished episode's last observation
+//!   in `final_obs_*`, and the finished episode's infos.
+//! - Every step returns fresh output vectors (the binding hands them to numpy without copying).
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use crate::config::{ActionMode, Params};
+use crate::error::{Error, Result};
+use crate::math::{unit, wrap, Vec2};
+use crate::observe::{target_dim, wolf_dim, Observer};
+use crate::policies::saturator::saturate;
+use crate::policies::Command;
+use crate::reward::{nearest_target_distance, nearest_wolf_distance, RewardState};
+use crate::world::{Layout, Outcome, World};
+
+/// Which side learns; the other is scripted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Learners {
+    Wolves,
+    Targets,
+    All,
+    None,
+}
+
+impl Learners {
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "wolves" => Ok(Self::Wolves),
+            "targets" => Ok(Self::Targets),
+            "all" => Ok(Self::All),
+            "none" => Ok(Self::None),
+            _ => Err(Error::Invalid(format!("learners must be one of 'wolves', 'targets', 'all', 'none', got {s:?}"))),
+        }
+    }
+
+    pub fn wolves(self) -> bool {
+        matches!(self, Self::Wolves | Self::All)
+    }
+
+    pub fn targets(self) -> bool {
+        matches!(self, Self::Targets | Self::All)
+    }
+}
+
+/// The outputs of one reset or step, for the whole batch (row-major, world first).
+#[derive(Debug, Clone, Default)]
+pub struct StepOutput {
+    /// [E, N, Dw] when wolves learn, else empty.
+    pub obs_wolves: Vec<f32>,
+    /// [E, M, Dt] when targets learn, else empty.
+    pub obs_targets: Vec<f32>,
+    /// [E, N] / [E, M] when that side learns.
+    pub rewards_wolves: Vec<f32>,
+    pub rewards_targets: Vec<f32>,
+    /// [E]: the episode ended by capture or collision / by the step limit.
+    pub terminated: Vec<bool>,
+    pub truncated: Vec<bool>,
+    /// Last observation of an episode that ended this step (autoreset only; zeros elsewhere).
+    pub final_obs_wolves: Vec<f32>,
+    pub final_obs_targets: Vec<f32>,
+    /// Infos of the episode this step belongs to (the finished one on an autoreset).
+    /// [E]: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout.
+    pub outcome: Vec<u8>,
+    /// [E]: steps taken in the episode.
+    pub steps: Vec<u32>,
+    /// [E, M]: step at which each target was captured, −1 if not.
+    pub capture_step: Vec<i64>,
+    /// [E, N+M]: accumulated energy (J), collision steps, and distance to the nearest
+    /// uncaptured target (wolves; NaN when none is left) / nearest wolf (targets).
+    pub energy: Vec<f64>,
+    pub collisions: Vec<u32>,
+    pub distance: Vec<f64>,
+}
+
+pub fn outcome_code(o: Outcome) -> u8 {
+    match o {
+        Outcome::Running => 0,
+        Outcome::Captured => 1,
+        Outcome::Collision => 2,
+        Outcome::Timeout => 3,
+    }
+}
+
+struct Slot {
+    world: World,
+    seed: u64,
+    episode: u64,
+    rewards: RewardState,
+    observer: Observer,
+    wolf_cmds: Vec<Command>,
+    target_cmds: Vec<Command>,
+}
+
+/// One world's share of a [`StepOutput`].
+struct SlotOut<'a> {
+    obs_w: &'a mut [f32],
+    obs_t: &'a mut [f32],
+    rew_w: &'a mut [f32],
+    rew_t: &'a mut [f32],
+    term: &'a mut bool,
+    trunc: &'a mut bool,
+    fin_w: &'a mut [f32],
+    fin_t: &'a mut [f32],
+    outcome: &'a mut u8,
+    steps: &'a mut u32,
+    capture_step: &'a mut [i64],
+    energy: &'a mut [f64],
+    collisions: &'a mut [u32],
+    distance: &'a mut [f64],
+}
+
+/// `buf` cut into `e` consecutive pieces of `per` (empty pieces when `per` is 0).
+fn pieces<T>(buf: &mut [T], per: usize, e: usize) -> Vec<&mut [T]> {
+    if per == 0 {
+        return (0..e).map(|_| <&mut [T]>::default()).collect();
+    }
+    buf.chunks_mut(per).collect()
+}
+
+pub struct BatchEnv {
+    params: Arc<Params>,
+    learners: Learners,
+    autoreset: bool,
+    slots: Vec<Slot>,
+    pool: Option<rayon::ThreadPool>,
+    track_laws: bool,
+}
+
+impl BatchEnv {
+    /// `num_envs` worlds seeded `seed + i`. `threads`: None = rayon's global pool (all cores).
+    pub fn new(params: Params, num_envs: usize, learners: Learners, seed: u64, autoreset: bool, threads: Option<usize>) -> Result<Self> {
+        params.validate()?;
+        if num_envs == 0 {
+            return Err(Error::Invalid("num_envs must be >= 1".into()));
+        }
+        if num_envs > 1 << 20 {
+            return Err(Error::Invalid(format!("num_envs must be <= {}, got {num_envs}", 1 << 20)));
+        }
+        let pool = match threads {
+            Some(0) => return Err(Error::Invalid("threads must be >= 1".into())),
+            Some(t) => Some(rayon::ThreadPoolBuilder::new().num_threads(t).build().map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
+            None => None,
+        };
+        let params = Arc::new(params);
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, track_laws: false };
+        let worlds: Vec<Result<Slot>> = env.run(|| (0..num_envs).into_par_iter().map(|i| env_slot(&env.params, seed.wrapping_add(i as u64), 0, None)).collect());
+        env.slots = worlds.into_iter().collect::<Result<_>>()?;
+        Ok(env)
+    }
+
+    fn run<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        run_in(&self.pool, f)
+    }
+
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+    pub fn num_envs(&self) -> usize {
+        self.slots.len()
+    }
+    pub fn learners(&self) -> Learners {
+        self.learners
+    }
+    pub fn n_wolves(&self) -> usize {
+        self.params.world.wolves
+    }
+    pub fn n_targets(&self) -> usize {
+        self.params.world.targets
+    }
+    pub fn wolf_obs_dim(&self) -> usize {
+        wolf_dim(&self.params)
+    }
+    pub fn target_obs_dim(&self) -> usize {
+        target_dim(&self.params)
+    }
+    pub fn world(&self, e: usize) -> Option<&World> {
+        self.slots.get(e).map(|s| &s.world)
+    }
+    /// Seed of world `e` and the index of its current episode under that seed.
+    pub fn world_seed(&self, e: usize) -> Option<(u64, u64)> {
+        self.slots.get(e).map(|s| (s.seed, s.episode))
+    }
+
+    /// Resets every world: with `seed`, world i is re-seeded `seed + i` (episode 0); without,
+    /// each world starts its next episode.
+    pub fn reset(&mut self, seed: Option<u64>) -> Result<StepOutput> {
+        let params = self.params.clone();
+        let track = self.track_laws;
+        let fresh: Vec<Result<Slot>> = {
+            let slots = &self.slots;
+            self.run(|| {
+                slots
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, s)| {
+                        let (sd, ep) = match seed {
+                            Some(b) => (b.wrapping_add(i as u64), 0),
+                            None => (s.seed, s.episode + 1),
+                        };
+                        env_slot(&params, sd, ep, None)
+                    })
+                    .collect()
+            })
+        };
+        self.slots = fresh.into_iter().collect::<Result<_>>()?;
+        for s in &mut self.slots {
+            s.world.track_laws = track;
+        }
+        Ok(self.observe_all())
+    }
+
+    /// Resets world `e` alone, optionally from an explicit layout (whose agent counts must
+    /// equal this batch's). `seed` as in [`BatchEnv::reset`] but for this world: `seed` itself.
+    pub fn reset_world(&mut self, e: usize, seed: Option<u64>, layout: Option<&Layout>) -> Result<StepOutput> {
+        let (cur_seed, cur_ep) = self.world_seed(e).ok_or_else(|| Error::Invalid(format!("world index {e} out of range (num_envs = {})", self.num_envs())))?;
+        if let Some(l) = layout {
+            let (n, m) = (self.n_wolves(), self.n_targets());
+            if l.wolves.len() != n || l.targets.len() != m {
+                return Err(Error::Layout(format!(
+                    "layout has {} wolves and {} targets; this environment was built for {n} and {m} (its spaces depend on them)",
+                    l.wolves.len(),
+                    l.targets.len()
+                )));
+            }
+        }
+        let (sd, ep) = match seed {
+            Some(s) => (s, 0),
+            None => (cur_seed, cur_ep + 1),
+        };
+        let mut slot = env_slot(&self.params, sd, ep, layout)?;
+        slot.world.track_laws = self.track_laws;
+        self.slots[e] = slot;
+        Ok(self.observe_all())
+    }
+
+    /// Observations of the current states (as a reset returns them): obs and infos filled,
+    /// rewards zero, no episode end.
+    pub fn observe_all(&mut self) -> StepOutput {
+        let mut out = self.alloc();
+        let e = self.slots.len();
+        let outs = self.split(&mut out, e);
+        run_in(&self.pool, || {
+            self.slots.par_iter_mut().zip(outs).for_each(|(s, o)| {
+                write_obs(s, o.obs_w, o.obs_t);
+                write_infos(&s.world, o.outcome, o.steps, o.capture_step, o.energy, o.collisions, o.distance);
+            })
+        });
+        out
+    }
+
+    fn alloc(&self) -> StepOutput {
+        let e = self.slots.len();
+        let (n, m) = (self.n_wolves(), self.n_targets());
+        let dw = if self.learners.wolves() { n * self.wolf_obs_dim() } else { 0 };
+        let dt = if self.learners.targets() { m * self.target_obs_dim() } else { 0 };
+        let rw = if self.learners.wolves() { n } else { 0 };
+        let rt = if self.learners.targets() { m } else { 0 };
+        StepOutput {
+            obs_wolves: vec![0.0; e * dw],
+            obs_targets: vec![0.0; e * dt],
+            rewards_wolves: vec![0.0; e * rw],
+            rewards_targets: vec![0.0; e * rt],
+            terminated: vec![false; e],
+            truncated: vec![false; e],
+            final_obs_wolves: if self.autoreset { vec![0.0; e * dw] } else { Vec::new() },
+            final_obs_targets: if self.autoreset { vec![0.0; e * dt] } else { Vec::new() },
+            outcome: vec![0; e],
+            steps: vec![0; e],
+            capture_step: vec![-1; e * m],
+            energy: vec![0.0; e * (n + m)],
+            collisions: vec![0; e * (n + m)],
+            distance: vec![0.0; e * (n + m)],
+        }
+    }
+
+    fn split<'a>(&self, o: &'a mut StepOutput, e: usize) -> Vec<SlotOut<'a>> {
+        let (n, m) = (self.n_wolves(), self.n_targets());
+        let per = |v: usize| if e == 0 { 0 } else { v / e };
+        let (dw, dt) = (per(o.obs_wolves.len()), per(o.obs_targets.len()));
+        let (rw, rt) = (per(o.rewards_wolves.len()), per(o.rewards_targets.len()));
+        let (fw, ft) = (per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()));
+        let mut obs_w = pieces(&mut o.obs_wolves, dw, e).into_iter();
+        let mut obs_t = pieces(&mut o.obs_targets, dt, e).into_iter();
+        let mut rew_w = pieces(&mut o.rewards_wolves, rw, e).into_iter();
+        let mut rew_t = pieces(&mut o.rewards_targets, rt, e).into_iter();
+        let mut fin_w = pieces(&mut o.final_obs_wolves, fw, e).into_iter();
+        let mut fin_t = pieces(&mut o.final_obs_targets, ft, e).into_iter();
+        let mut term = o.terminated.iter_mut();
+        let mut trunc = o.truncated.iter_mut();
+        let mut outcome = o.outcome.iter_mut();
+        let mut steps = o.steps.iter_mut();
+        let mut cap = pieces(&mut o.capture_step, m, e).into_iter();
+        let mut energy = pieces(&mut o.energy, n + m, e).into_iter();
+        let mut coll = pieces(&mut o.collisions, n + m, e).into_iter();
+        let mut dist = pieces(&mut o.distance, n + m, e).into_iter();
+        (0..e)
+            .map(|_| SlotOut {
+                obs_w: obs_w.next().unwrap(),
+                obs_t: obs_t.next().unwrap(),
+                rew_w: rew_w.next().unwrap(),
+                rew_t: rew_t.next().unwrap(),
+                term: term.next().unwrap(),
+                trunc: trunc.next().unwrap(),
+                fin_w: fin_w.next().unwrap(),
+                fin_t: fin_t.next().unwrap(),
+                outcome: outcome.next().unwrap(),
+                steps: steps.next().unwrap(),
+                capture_step: cap.next().unwrap(),
+                energy: energy.next().unwrap(),
+                collisions: coll.next().unwrap(),
+                distance: dist.next().unwrap(),
+            })
+            .collect()
+    }
+
+    /// Checks an action array of one side: its length and that every entry is finite. The
+    /// error names the world and the agent.
+    fn check_actions(&self, actions: &[f32], side: &str, per_world: usize) -> Result<()> {
+        let e = self.slots.len();
+        if actions.len() != e * per_world * 2 {
+            return Err(Error::Invalid(format!("{side} actions: expected {} values ({e} worlds x {per_world} agents x 2), got {}", e * per_world * 2, actions.len())));
+        }
+        if let Some(k) = actions.iter().position(|a| !a.is_finite()) {
+            let (w, a) = (k / 2 / per_world, k / 2 % per_world);
+            let name = if side == "wolf" { "wolf" } else { "target" };
+            return Err(Error::Invalid(format!("action of {name}_{a} in world {w} is not finite: {}", actions[k])));
+        }
+        Ok(())
+    }
+
+    /// One step of every world. `wolf_actions` ([E, N, 2]) / `target_actions` ([E, M, 2]) are
+    /// required for (and only for) the learning sides; values are clipped to [-1, 1]. Nothing
+    /// moves when the actions are invalid. Without autoreset, a finished world stays as it is.
+    pub fn step(&mut self, wolf_actions: &[f32], target_actions: &[f32]) -> Result<StepOutput> {
+        let (n, m) = (self.n_wolves(), self.n_targets());
+        for (learns, acts, side, per) in [(self.learners.wolves(), wolf_actions, "wolf", n), (self.learners.targets(), target_actions, "target", m)] {
+            if learns {
+                self.check_actions(acts, side, per)?;
+            } else if !acts.is_empty() {
+                return Err(Error::Invalid(format!("{side}s are scripted here (learners = {:?}); pass no {side} actions", self.learners)));
+            }
+        }
+        let mut out = self.alloc();
+        let e = self.slots.len();
+        let outs = self.split(&mut out, e);
+        let learners = self.learners;
+        let autoreset = self.autoreset;
+        let params = self.params.clone();
+        let track = self.track_laws;
+        let results: Vec<Result<()>> = run_in(&self.pool, || {
+            self.slots
+                .par_iter_mut()
+                .zip(outs)
+                .enumerate()
+                .map(|(i, (s, o))| {
+                    let wa = if learners.wolves() { &wolf_actions[i * n * 2..(i + 1) * n * 2] } else { &[][..] };
+                    let ta = if learners.targets() { &target_actions[i * m * 2..(i + 1) * m * 2] } else { &[][..] };
+                    step_slot(s, o, wa, ta, learners, autoreset, &params, track)
+                })
+                .collect()
+        });
+        results.into_iter().collect::<Result<()>>()?;
+        Ok(out)
+    }
+
+    /// What the scripted law of each learning side would do now, as actions in this batch's
+    /// action space: ([E, N, 2] or empty, [E, M, 2] or empty). The first call switches on
+    /// law tracking: from then on the laws' memories follow every episode (see
+    /// [`World::track_laws`]).
+    pub fn expert_actions(&mut self) -> (Vec<f32>, Vec<f32>) {
+        if !self.track_laws {
+            self.track_laws = true;
+            for s in &mut self.slots {
+                s.world.track_laws = true;
+            }
+        }
+        let (n, m) = (self.n_wolves(), self.n_targets());
+        let learners = self.learners;
+        let mode = self.params.env.action_mode;
+        let per: Vec<(Vec<f32>, Vec<f32>)> = self.run(|| {
+            self.slots
+                .par_iter()
+                .map(|s| {
+                    let w = &s.world;
+                    let (dw, dt) = w.expert_desired();
+                    let p = &w.params;
+                    let mut aw = Vec::new();
+                    if learners.wolves() {
+                        for (a, &(v, th)) in w.wolves.iter().zip(&dw) {
+                            aw.extend(encode(mode, a.theta, v, th, p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts));
+                        }
+                    }
+                    let mut at = Vec::new();
+                    if learners.targets() {
+                        let side = &p.agents.target;
+                        for (a, &(v, th)) in w.targets.iter().zip(&dt) {
+                            at.extend(encode(mode, a.theta, v, th, side.v_max, side.omega_max, p.world.ts));
+                        }
+                    }
+                    (aw, at)
+                })
+                .collect()
+        });
+        let mut aw = Vec::with_capacity(self.slots.len() * n * 2);
+        let mut at = Vec::with_capacity(self.slots.len() * m * 2);
+        for (w, t) in per {
+            aw.extend(w);
+            at.extend(t);
+        }
+        (aw, at)
+    }
+}
+
+/// Runs `f` on the batch's own pool, or on rayon's global pool.
+fn run_in<R: Send>(pool: &Option<rayon::ThreadPool>, f: impl FnOnce() -> R + Send) -> R {
+    match pool {
+        Some(p) => p.install(f),
+        None => f(),
+    }
+}
+
+fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layout>) -> Result<Slot> {
+    let world = match layout {
+        Some(l) => World::from_layout_episode(params.clone(), seed, episode, l)?,
+        None => World::new_episode(params.clone(), seed, episode)?,
+    };
+    let (n, m) = (world.n_wolves(), world.n_targets());
+    Ok(Slot { rewards: RewardState::new(&world), world, seed, episode, observer: Observer::default(), wolf_cmds: vec![Command::default(); n], target_cmds: vec![Command::default(); m] })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn step_slot(s: &mut Slot, o: SlotOut, wa: &[f32], ta: &[f32], learners: Learners, autoreset: bool, params: &Arc<Params>, track: bool) -> Result<()> {
+    let p = &**params;
+    let mode = p.env.action_mode;
+    if !s.world.is_done() {
+        for (k, a) in s.world.wolves.iter().enumerate().take(wa.len() / 2) {
+            s.wolf_cmds[k] = decode(mode, a.theta, wa[2 * k], wa[2 * k + 1], p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts);
+        }
+        let side = &p.agents.target;
+        for (k, a) in s.world.targets.iter().enumerate().take(ta.len() / 2) {
+            s.target_cmds[k] = decode(mode, a.theta, ta[2 * k], ta[2 * k + 1], side.v_max, side.omega_max, p.world.ts);
+        }
+        let wc = learners.wolves().then_some(&s.wolf_cmds[..]);
+        let tc = learners.targets().then_some(&s.target_cmds[..]);
+        s.world.step_with(wc, tc);
+        s.rewards.step(&s.world, o.rew_w, o.rew_t);
+    }
+    let outcome = s.world.outcome;
+    *o.term = matches!(outcome, Outcome::Captured | Outcome::Collision);
+    *o.trunc = outcome == Outcome::Timeout;
+    write_infos(&s.world, o.outcome, o.steps, o.capture_step, o.energy, o.collisions, o.distance);
+    if autoreset && outcome != Outcome::Running {
+        write_obs(s, o.fin_w, o.fin_t);
+        let mut next = env_slot(params, s.seed, s.episode + 1, None)?;
+        next.world.track_laws = track;
+        *s = next;
+    }
+    write_obs(s, o.obs_w, o.obs_t);
+    Ok(())
+}
+
+fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
+    let w = &s.world;
+    if !obs_w.is_empty() {
+        let d = obs_w.len() / w.n_wolves();
+        for (i, chunk) in obs_w.chunks_mut(d).enumerate() {
+            s.observer.wolf(w, i, chunk);
+        }
+    }
+    if !obs_t.is_empty() {
+        let d = obs_t.len() / w.n_targets();
+        for (j, chunk) in obs_t.chunks_mut(d).enumerate() {
+            s.observer.target(w, j, chunk);
+        }
+    }
+}
+
+fn write_infos(w: &World, outcome: &mut u8, steps: &mut u32, capture_step: &mut [i64], energy: &mut [f64], collisions: &mut [u32], distance: &mut [f64]) {
+    *outcome = outcome_code(w.outcome);
+    *steps = w.t;
+    for (c, s) in capture_step.iter_mut().zip(&w.target_capture_step) {
+        *c = s.map_or(-1, i64::from);
+    }
+    let n = w.n_wolves();
+    for (k, e) in energy.iter_mut().enumerate() {
+        *e = if k < n { w.wolves[k].energy } else { w.targets[k - n].energy };
+    }
+    collisions.copy_from_slice(&w.collisions);
+    for (k, d) in distance.iter_mut().enumerate() {
+        *d = if k < n {
+            let x = nearest_target_distance(w, k);
+            if x.is_finite() {
+                x
+            } else {
+                f64::NAN
+            }
+        } else {
+            nearest_wolf_distance(w, k - n)
+        };
+    }
+}
+
+/// A learner's action → command. Unicycle: v = (a₀+1)/2·v_max, ω = a₁·ω_max. Velocity: a is
+/// a desired velocity in the agent frame in units of v_max (norm capped at 1), through the
+/// saturator. Actions are clipped to [-1, 1] first.
+pub fn decode(mode: ActionMode, theta: f64, a0: f32, a1: f32, v_max: f64, omega_max: f64, ts: f64) -> Command {
+    let (a0, a1) = ((a0 as f64).clamp(-1.0, 1.0), (a1 as f64).clamp(-1.0, 1.0));
+    match mode {
+        ActionMode::Unicycle => Command { v: (a0 + 1.0) * 0.5 * v_max, omega: a1 * omega_max },
+        ActionMode::Velocity => {
+            let a = Vec2::new(a0, a1);
+            let r = a.norm();
+            let theta_d = if r > 0.0 { wrap(theta + a1.atan2(a0)) } else { theta };
+            saturate(r.min(1.0) * v_max, theta_d, theta, v_max, omega_max, ts)
+        }
+    }
+}
+
+/// The inverse of [`decode`] for a law's desired (v_d, θ_d): unicycle encodes the saturated
+/// command; velocity encodes the desired velocity itself (a zero speed keeps its direction as
+/// a 1e-6 norm, so that the saturator still turns).
+pub fn encode(mode: ActionMode, theta: f64, v_d: f64, theta_d: f64, v_max: f64, omega_max: f64, ts: f64) -> [f32; 2] {
+    match mode {
+        ActionMode::Unicycle => {
+            let c = saturate(v_d, theta_d, theta, v_max, omega_max, ts);
+            [((2.0 * c.v / v_max - 1.0).clamp(-1.0, 1.0)) as f32, ((c.omega / omega_max).clamp(-1.0, 1.0)) as f32]
+        }
+        ActionMode::Velocity => {
+            let r = (v_d / v_max).clamp(1e-6, 1.0);
+            let a = unit(theta_d - theta) * r;
+            [a.x as f32, a.y as f32]
+        }
+    }
+}

@@ -1,0 +1,307 @@
+//! Observations of the learning interface: fixed-size, egocentric, f32.
+//!
+//! Relative positions are in the observer's frame (x ahead, y to the left); relative headings
+//! are sin/cos of (other θ − own θ). Layout (N wolves, M targets, K lidar rays; `S` the larger
+//! arena side, `r` the observer side's sensing radius):
+//!
+//! | slice | wolf | target | meaning |
+//! |---|---|---|---|
+//! | 0 | v / v_max | same | own speed executed in the last step |
+//! | 1 | ω / ω_max | same | own turn rate |
+//! | 2–3 | sin θ, cos θ | same | own heading (world frame) |
+//! | 4–7 | wall distances | same | (x − x_min)/W, (x_max − x)/W, (y − y_min)/H, (y_max − y)/H |
+//! | 8 | t / max_steps | same | episode clock |
+//! | wolf: 9 … +5M | per target (index order): sensed, dx/r, dy/r, sin Δθ, cos Δθ | | all zero unless the wolf senses it now (d ≤ r_w): the sensing topology |
+//! | wolf: … +4(N−1) | other wolves by distance: dx/S, dy/S, sin Δθ, cos Δθ | | global communication |
+//! | target: 9 | | speed cap / v_max | the fatigue cap in force (1 before the first sighting or without fatigue) |
+//! | target: 10 … +5N | | wolves by distance: in range, dx/r, dy/r, sin Δθ, cos Δθ | sensed wolves first; the rest all zero |
+//! | next K | lidar | same | ray k at θ + 2πk/K: distance to the first obstacle or wall / range, 1 = nothing |
+//! | last N+M (optional) | interaction row | same | the agent's row of the last step's interaction matrix |
+//!
+//! Lidar rays are parry ray casts: `Ball` for circles, each edge's `Segment` for polygons (exact
+//! non-convex shapes), the arena's `Aabb` from inside for the walls.
+
+use parry2d_f64::bounding_volume::Aabb;
+use parry2d_f64::query::{Ray, RayCast};
+use parry2d_f64::shape::{Ball, Segment};
+
+use crate::config::Params;
+use crate::math::{unit, Point2, Vec2};
+use crate::world::{AgentState, Obstacle, World};
+
+/// Entries in the shared block (speed, turn rate, heading, walls, clock).
+pub const COMMON: usize = 9;
+
+/// Observation sizes of both sides for these params.
+pub fn wolf_dim(p: &Params) -> usize {
+    let (n, m) = (p.world.wolves, p.world.targets);
+    COMMON + 5 * m + 4 * (n - 1) + p.env.lidar.rays + extra(p)
+}
+
+pub fn target_dim(p: &Params) -> usize {
+    let n = p.world.wolves;
+    COMMON + 1 + 5 * n + p.env.lidar.rays + extra(p)
+}
+
+fn extra(p: &Params) -> usize {
+    if p.env.interaction_row {
+        p.world.wolves + p.world.targets
+    } else {
+        0
+    }
+}
+
+/// Writes observations; keeps a scratch buffer so that observing allocates nothing.
+#[derive(Debug, Clone, Default)]
+pub struct Observer {
+    by_distance: Vec<(f64, usize)>,
+}
+
+impl Observer {
+    /// Wolf `i`'s observation into `out` (length [`wolf_dim`]).
+    pub fn wolf(&mut self, w: &World, i: usize, out: &mut [f32]) {
+        let p = &*w.params;
+        let me = w.wolves[i];
+        let mut k = common(p, w.t, &me, p.agents.wolf.v_max, p.agents.wolf.omega_max, out);
+        let r = p.agents.wolf.sense_radius;
+        for t in &w.targets {
+            let d = t.pos - me.pos;
+            if d.norm() <= r {
+                write_relative(&me, t, 1.0 / r, &mut out[k..k + 5], true);
+            } else {
+                out[k..k + 5].fill(0.0);
+            }
+            k += 5;
+        }
+        let scale = 1.0 / arena_scale(p);
+        self.sort_by_distance(me.pos, &w.wolves, Some(i));
+        for &(_, j) in &self.by_distance {
+            write_relative(&me, &w.wolves[j], scale, &mut out[k..k + 4], false);
+            k += 4;
+        }
+        k += lidar(p, &me, &w.obstacles, &mut out[k..k + p.env.lidar.rays]);
+        interaction_row(w, i, &mut out[k..]);
+    }
+
+    /// Target `j`'s observation into `out` (length [`target_dim`]).
+    pub fn target(&mut self, w: &World, j: usize, out: &mut [f32]) {
+        let p = &*w.params;
+        let me = w.targets[j];
+        let side = &p.agents.target;
+        let mut k = common(p, w.t, &me, side.v_max, side.omega_max, out);
+        let cap = match w.target_seen_at[j] {
+            Some(seen) if side.fatigue => p.escape.fatigue_speed(seen, w.t).min(side.v_max),
+            _ => side.v_max,
+        };
+        out[k] = (cap / side.v_max) as f32;
+        k += 1;
+        let r = side.sense_radius;
+        self.sort_by_distance(me.pos, &w.wolves, None);
+        for &(d, i) in &self.by_distance {
+            if d <= r {
+                write_relative(&me, &w.wolves[i], 1.0 / r, &mut out[k..k + 5], true);
+            } else {
+                out[k..k + 5].fill(0.0);
+            }
+            k += 5;
+        }
+        k += lidar(p, &me, &w.obstacles, &mut out[k..k + p.env.lidar.rays]);
+        interaction_row(w, w.n_wolves() + j, &mut out[k..]);
+    }
+
+    /// Agents by distance from `from` (ties: lower index), leaving out index `skip`.
+    fn sort_by_distance(&mut self, from: Vec2, agents: &[AgentState], skip: Option<usize>) {
+        self.by_distance.clear();
+        self.by_distance.extend(agents.iter().enumerate().filter(|&(j, _)| Some(j) != skip).map(|(j, a)| ((a.pos - from).norm(), j)));
+        self.by_distance.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    }
+}
+
+fn arena_scale(p: &Params) -> f64 {
+    let [x0, y0, x1, y1] = p.world.border;
+    (x1 - x0).max(y1 - y0)
+}
+
+/// The shared block; returns the next free index.
+fn common(p: &Params, t: u32, me: &AgentState, v_max: f64, omega_max: f64, out: &mut [f32]) -> usize {
+    let [x0, y0, x1, y1] = p.world.border;
+    let (w, h) = (x1 - x0, y1 - y0);
+    let (s, c) = me.theta.sin_cos();
+    let values = [
+        me.v / v_max,
+        me.omega / omega_max,
+        s,
+        c,
+        (me.pos.x - x0) / w,
+        (x1 - me.pos.x) / w,
+        (me.pos.y - y0) / h,
+        (y1 - me.pos.y) / h,
+        t as f64 / p.world.max_steps as f64,
+    ];
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = v as f32;
+    }
+    COMMON
+}
+
+/// `other` in `me`'s frame: [flag,] dx·scale, dy·scale, sin Δθ, cos Δθ.
+fn write_relative(me: &AgentState, other: &AgentState, scale: f64, out: &mut [f32], flag: bool) {
+    let d = other.pos - me.pos;
+    let (s, c) = me.theta.sin_cos();
+    let ahead = c * d.x + s * d.y;
+    let left = -s * d.x + c * d.y;
+    let (ds, dc) = (other.theta - me.theta).sin_cos();
+    let values = [ahead * scale, left * scale, ds, dc];
+    let out = if flag {
+        out[0] = 1.0;
+        &mut out[1..]
+    } else {
+        out
+    };
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = v as f32;
+    }
+}
+
+/// Lidar rays into `out` (its length is the ray count); returns that count.
+fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -> usize {
+    let rays = out.len();
+    if rays == 0 {
+        return 0;
+    }
+    let range = p.env.lidar.range;
+    let [x0, y0, x1, y1] = p.world.border;
+    let arena = Aabb::new(Point2::new(x0, y0), Point2::new(x1, y1));
+    let origin = Point2::from(me.pos);
+    for (k, o) in out.iter_mut().enumerate() {
+        let dir = unit(me.theta + std::f64::consts::TAU * k as f64 / rays as f64);
+        let ray = Ray::new(origin, dir);
+        // From inside, a non-solid cast reports the distance to the boundary.
+        let mut best = arena.cast_local_ray(&ray, range, false).unwrap_or(range);
+        for ob in obstacles {
+            // Cull: the obstacle's bounding disc is out of reach.
+            if (ob.center - me.pos).norm() - ob.radius > best {
+                continue;
+            }
+            if let Some(t) = ray_obstacle(ob, &ray, best) {
+                best = best.min(t);
+            }
+        }
+        *o = (best / range).clamp(0.0, 1.0) as f32;
+    }
+    rays
+}
+
+/// First hit of `ray` on an obstacle's exact shape within `max` (0 when the origin is inside).
+pub fn ray_obstacle(ob: &Obstacle, ray: &Ray, max: f64) -> Option<f64> {
+    if !ob.is_polygon() {
+        let local = Ray::new(ray.origin - ob.center, ray.dir);
+        return Ball::new(ob.radius).cast_local_ray(&local, max, true);
+    }
+    if crate::geometry::polygon_contains(&ob.vertices, ray.origin.coords) {
+        return Some(0.0);
+    }
+    let v = &ob.vertices;
+    let mut best: Option<f64> = None;
+    for e in 0..v.len() {
+        let seg = Segment::new(Point2::from(v[e]), Point2::from(v[(e + 1) % v.len()]));
+        if let Some(t) = seg.cast_local_ray(ray, best.unwrap_or(max), true) {
+            best = Some(best.map_or(t, |b| b.min(t)));
+        }
+    }
+    best
+}
+
+fn interaction_row(w: &World, agent: usize, out: &mut [f32]) {
+    if out.is_empty() {
+        return;
+    }
+    let k = w.n_wolves() + w.n_targets();
+    for (o, &x) in out.iter_mut().zip(&w.interaction[agent * k..(agent + 1) * k]) {
+        *o = x as f32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    use crate::world::{Layout, LayoutObstacle};
+
+    fn world(wolves: Vec<[f64; 3]>, targets: Vec<[f64; 3]>, obstacles: Vec<LayoutObstacle>) -> World {
+        let layout = Layout { wolves, targets, obstacles };
+        World::from_layout(Arc::new(Params::default()), 0, &layout).unwrap()
+    }
+
+    #[test]
+    fn dimensions_match_the_table() {
+        let p = Params::default();
+        assert_eq!(wolf_dim(&p), 9 + 5 + 16 + 16);
+        assert_eq!(target_dim(&p), 9 + 1 + 25 + 16);
+        let mut q = p.clone();
+        q.env.interaction_row = true;
+        q.env.lidar.rays = 4;
+        assert_eq!(wolf_dim(&q), 9 + 5 + 16 + 4 + 6);
+    }
+
+    #[test]
+    fn wolf_sees_the_target_in_its_own_frame_only_within_range() {
+        // Wolf at the origin facing +y; target 2 m ahead (in range), heading −x.
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let far = [[0.0, 0.0, half_pi], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0], [5.0, -5.0, 0.0], [-5.0, -5.0, 0.0]];
+        let w = world(far.to_vec(), vec![[0.0, 2.0, std::f64::consts::PI]], vec![]);
+        let mut out = vec![9.0f32; wolf_dim(&w.params)];
+        Observer::default().wolf(&w, 0, &mut out);
+        let t = &out[9..14];
+        assert_eq!(t[0], 1.0);
+        assert!((t[1] - 2.0 / 3.0).abs() < 1e-6 && t[2].abs() < 1e-6, "{t:?}");
+        // Δθ = π − π/2 = π/2: sin 1, cos 0.
+        assert!((t[3] - 1.0).abs() < 1e-6 && t[4].abs() < 1e-6, "{t:?}");
+        // Wall distances: x = 0 → 0.5 each; clock 0.
+        assert_eq!(&out[4..9], &[0.5, 0.5, 0.5, 0.5, 0.0]);
+        // Move the target out of range: the whole block is zero.
+        let w = world(far.to_vec(), vec![[0.0, 3.5, 0.0]], vec![]);
+        Observer::default().wolf(&w, 0, &mut out);
+        assert_eq!(&out[9..14], &[0.0; 5]);
+    }
+
+    #[test]
+    fn other_wolves_are_sorted_by_distance() {
+        let w = world(vec![[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -2.0, 0.0], [-8.0, 0.0, 0.0]], vec![[9.0, 9.0, 0.0]], vec![]);
+        let mut out = vec![0f32; wolf_dim(&w.params)];
+        Observer::default().wolf(&w, 0, &mut out);
+        let xs: Vec<(f32, f32)> = (0..4).map(|k| (out[14 + 4 * k] * 20.0, out[15 + 4 * k] * 20.0)).collect();
+        let want = [(1.0, 0.0), (0.0, -2.0), (4.0, 0.0), (-8.0, 0.0)];
+        for (g, w) in xs.iter().zip(want) {
+            assert!((g.0 - w.0).abs() < 1e-5 && (g.1 - w.1).abs() < 1e-5, "{xs:?}");
+        }
+    }
+
+    #[test]
+    fn target_masks_wolves_out_of_range() {
+        let w = world(vec![[1.0, 0.0, 0.0], [0.0, 5.0, 0.0]], vec![[0.0, 0.0, 0.0]], vec![]);
+        let mut out = vec![0f32; target_dim(&w.params)];
+        Observer::default().target(&w, 0, &mut out);
+        assert_eq!(out[9], 1.0, "no sighting yet: no fatigue cap");
+        assert_eq!(&out[10..15], &[1.0, 1.0 / 3.0, 0.0, 0.0, 1.0]);
+        assert_eq!(&out[15..20], &[0.0; 5]);
+    }
+
+    #[test]
+    fn lidar_reads_walls_circles_and_polygons() {
+        // Wolf at (8.5, 0) facing +x: the wall is 1.5 ahead. A circle of radius 0.5 centred 2 m
+        // behind it (−x): surface at 1.5. A square polygon 1 m to the left (+y), edge at 1.0.
+        let square = LayoutObstacle::Polygon { center: [8.5, 2.0], vertices: vec![[8.0, 1.0], [9.0, 1.0], [9.0, 3.0], [8.0, 3.0]], moving: false };
+        let circle = LayoutObstacle::Circle { center: [6.5, 0.0], radius: 0.5, moving: false };
+        let w = world(vec![[8.5, 0.0, 0.0]], vec![[0.0, -6.0, 0.0]], vec![square, circle]);
+        let mut p = (*w.params).clone();
+        p.env.lidar.rays = 4;
+        let mut out = [0f32; 4];
+        lidar(&p, &w.wolves[0], &w.obstacles, &mut out);
+        let want = [1.5 / 3.0, 1.0 / 3.0, 1.5 / 3.0, 1.0];
+        for (g, w) in out.iter().zip(want) {
+            assert!((*g as f64 - w).abs() < 1e-6, "{out:?}");
+        }
+    }
+}

@@ -1,0 +1,151 @@
+//! Rewards of the learning interface (params `rewards.*`), per agent and step.
+//!
+//! Wolves, each: `−time_penalty`; `+capture_bonus` for every target captured this step (a
+//! team reward: every wolf gets it); `−collision_penalty` if its body overlaps an obstacle or
+//! another wolf after the step; potential-based shaping `shaping · (Φ(s') − Φ(s))` with
+//! `Φ = −|d − r_h|`, d the distance to the nearest uncaptured target and r_h `seed000.radius`
+//! (the hunting ring), and Φ = 0 in a terminal state (capture or collision) so that shaping
+//! does not change which policies are optimal (Ng et al., 1999). A timeout is a truncation,
+//! not a terminal state: Φ(s') keeps its value.
+//!
+//! Targets, each, until captured: `+survival` per step survived; `−capture_penalty` at the step
+//! it is captured; `−collision_penalty` at a step its body overlaps an obstacle. A captured
+//! target gets 0 afterwards.
+
+use crate::world::{Outcome, World};
+
+/// What the rewards remember between steps of one world.
+#[derive(Debug, Clone, Default)]
+pub struct RewardState {
+    potential: Vec<f64>,
+    collisions: Vec<u32>,
+    captured: Vec<bool>,
+}
+
+impl RewardState {
+    /// The state at the start of an episode.
+    pub fn new(w: &World) -> Self {
+        let mut s = Self::default();
+        s.reset(w);
+        s
+    }
+
+    pub fn reset(&mut self, w: &World) {
+        self.potential.clear();
+        self.potential.extend((0..w.n_wolves()).map(|i| potential(w, i)));
+        self.collisions.clear();
+        self.collisions.extend_from_slice(&w.collisions);
+        self.captured.clear();
+        self.captured.extend_from_slice(&w.target_captured);
+    }
+
+    /// The rewards of the step that led to `w`'s current state. Either output may be empty
+    /// (that side is not learning); otherwise its length is N or M.
+    pub fn step(&mut self, w: &World, wolves: &mut [f32], targets: &mut [f32]) {
+        let r = &w.params.rewards;
+        let n = w.n_wolves();
+        let newly_captured = w.target_captured.iter().zip(&self.captured).filter(|(now, before)| **now && !**before).count();
+        let terminal = matches!(w.outcome, Outcome::Captured | Outcome::Collision);
+        for i in 0..n {
+            let phi = if terminal { 0.0 } else { potential(w, i) };
+            if !wolves.is_empty() {
+                let collided = w.collisions[i] > self.collisions[i];
+                let mut x = -r.wolves.time_penalty + r.wolves.capture_bonus * newly_captured as f64 + r.wolves.shaping * (phi - self.potential[i]);
+                if collided {
+                    x -= r.wolves.collision_penalty;
+                }
+                wolves[i] = x as f32;
+            }
+            self.potential[i] = phi;
+        }
+        for j in 0..w.n_targets() {
+            if !targets.is_empty() {
+                let x = if self.captured[j] {
+                    0.0
+                } else {
+                    let mut x = if w.target_captured[j] { -r.targets.capture_penalty } else { r.targets.survival };
+                    if w.collisions[n + j] > self.collisions[n + j] {
+                        x -= r.targets.collision_penalty;
+                    }
+                    x
+                };
+                targets[j] = x as f32;
+            }
+        }
+        self.collisions.copy_from_slice(&w.collisions);
+        self.captured.copy_from_slice(&w.target_captured);
+    }
+}
+
+/// Φ of wolf i: minus its distance from the hunting ring of the nearest uncaptured target.
+fn potential(w: &World, i: usize) -> f64 {
+    let d = nearest_target_distance(w, i);
+    if d.is_finite() {
+        -(d - w.params.seed000.radius).abs()
+    } else {
+        0.0
+    }
+}
+
+/// Distance from wolf i to the nearest uncaptured target (∞ when every target is captured).
+pub fn nearest_target_distance(w: &World, i: usize) -> f64 {
+    let p = w.wolves[i].pos;
+    w.targets.iter().zip(&w.target_captured).filter(|(_, c)| !**c).map(|(t, _)| (t.pos - p).norm()).fold(f64::INFINITY, f64::min)
+}
+
+/// Distance from target j to the nearest wolf.
+pub fn nearest_wolf_distance(w: &World, j: usize) -> f64 {
+    let p = w.targets[j].pos;
+    w.wolves.iter().map(|a| (a.pos - p).norm()).fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    use crate::config::Params;
+    use crate::policies::Command;
+    use crate::world::Layout;
+
+    fn still_world(wolves: Vec<[f64; 3]>, target: [f64; 3]) -> World {
+        let mut p = Params::default();
+        p.policies.targets = crate::config::TargetPolicy::Still;
+        World::from_layout(Arc::new(p), 0, &Layout { wolves, targets: vec![target], obstacles: vec![] }).unwrap()
+    }
+
+    #[test]
+    fn shaping_time_penalty_and_survival_by_hand() {
+        // One wolf 3 m from a still target, driving straight at it at 1 m/s for one step:
+        // d 3.0 → 2.9, Φ −2.35 → −2.25, shaping +0.1; reward 0.1 − 0.01 = 0.09.
+        let mut w = still_world(vec![[-3.0, 0.0, 0.0]], [0.0, 0.0, 0.0]);
+        let mut s = RewardState::new(&w);
+        w.step_with(Some(&[Command { v: 1.0, omega: 0.0 }]), None);
+        let (mut rw, mut rt) = ([0f32; 1], [0f32; 1]);
+        s.step(&w, &mut rw, &mut rt);
+        assert!((rw[0] - 0.09).abs() < 1e-6, "{rw:?}");
+        assert!((rt[0] - 0.1).abs() < 1e-6, "{rt:?}");
+    }
+
+    #[test]
+    fn capture_pays_the_bonus_and_zeroes_the_potential() {
+        // Four wolves at 0.75 m around the target, one of them steps in: captured at step 1.
+        let ring = vec![[0.75, 0.0, 3.14159], [-0.75, 0.0, 0.0], [0.0, 0.75, 4.712], [0.0, -0.75, 1.5708], [5.0, 5.0, 0.0]];
+        let mut w = still_world(ring, [0.0, 0.0, 0.0]);
+        let mut s = RewardState::new(&w);
+        let stay = [Command::default(); 5];
+        w.step_with(Some(&stay), None);
+        assert_eq!(w.outcome, Outcome::Captured);
+        let (mut rw, mut rt) = ([0f32; 5], [0f32; 1]);
+        s.step(&w, &mut rw, &mut rt);
+        // Wolf 0: Φ −0.1 → 0: +0.1 shaping, +10 bonus, −0.01 time.
+        assert!((rw[0] - 10.09).abs() < 1e-5, "{rw:?}");
+        // Wolf 4: d = √50, Φ = −(√50 − 0.65) → 0.
+        let want = 10.0 - 0.01 + (50f64.sqrt() - 0.65);
+        assert!((rw[4] as f64 - want).abs() < 1e-4, "{rw:?}");
+        assert_eq!(rt[0], -10.0);
+        // After the capture the target's reward is 0.
+        s.step(&w, &mut rw, &mut rt);
+        assert_eq!(rt[0], 0.0);
+    }
+}
