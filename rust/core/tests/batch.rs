@@ -1,0 +1,159 @@
+//! The native batch: determinism over threads and batch splits, same-step autoreset, the
+//! expert reproducing the scripted laws, and bad actions.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
+use wolfpack_core::config::ActionMode;
+use wolfpack_core::episode::run_episodes;
+use wolfpack_core::world::Outcome;
+use wolfpack_core::Params;
+
+fn random_actions(rng: &mut ChaCha8Rng, len: usize) -> Vec<f32> {
+    (0..len).map(|_| rng.random_range(-1.2f32..1.2)).collect()
+}
+
+/// Everything a step returns, flattened to bits for exact comparison.
+fn bits(o: &StepOutput) -> Vec<u64> {
+    let mut v: Vec<u64> = Vec::new();
+    v.extend(o.obs_wolves.iter().chain(&o.obs_targets).chain(&o.rewards_wolves).chain(&o.rewards_targets).chain(&o.final_obs_wolves).chain(&o.final_obs_targets).map(|x| x.to_bits() as u64));
+    v.extend(o.terminated.iter().chain(&o.truncated).map(|&b| b as u64));
+    v.extend(o.outcome.iter().map(|&x| x as u64));
+    v.extend(o.energy.iter().chain(&o.distance).map(|x| x.to_bits()));
+    v
+}
+
+fn rollout(params: &Params, e: usize, seed: u64, threads: usize, learners: Learners, steps: usize) -> Vec<Vec<u64>> {
+    let mut env = BatchEnv::new(params.clone(), e, learners, seed, true, Some(threads)).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let (n, m) = (env.n_wolves(), env.n_targets());
+    let mut out = vec![bits(&env.reset(Some(seed)).unwrap())];
+    for _ in 0..steps {
+        let wa = if learners.wolves() { random_actions(&mut rng, e * n * 2) } else { vec![] };
+        let ta = if learners.targets() { random_actions(&mut rng, e * m * 2) } else { vec![] };
+        out.push(bits(&env.step(&wa, &ta).unwrap()));
+    }
+    out
+}
+
+#[test]
+fn thread_count_does_not_change_a_single_bit() {
+    let p = Params::default();
+    for learners in [Learners::Wolves, Learners::Targets, Learners::All] {
+        // 700 steps: every world finishes and autoresets at least twice.
+        assert_eq!(rollout(&p, 6, 3, 1, learners, 700), rollout(&p, 6, 3, 2, learners, 700), "{learners:?}");
+    }
+}
+
+#[test]
+fn splitting_the_batch_does_not_change_any_world() {
+    // Worlds 0..4 of one batch seeded 10 == a batch of 2 seeded 10 and a batch of 2 seeded 12,
+    // driven by the scripted laws on both sides (learners none), through several autoresets.
+    let p = Params::default();
+    let mut whole = BatchEnv::new(p.clone(), 4, Learners::None, 10, true, Some(2)).unwrap();
+    let mut a = BatchEnv::new(p.clone(), 2, Learners::None, 10, true, Some(1)).unwrap();
+    let mut b = BatchEnv::new(p, 2, Learners::None, 12, true, Some(1)).unwrap();
+    for _ in 0..900 {
+        let w = whole.step(&[], &[]).unwrap();
+        let (x, y) = (a.step(&[], &[]).unwrap(), b.step(&[], &[]).unwrap());
+        assert_eq!(w.energy, [x.energy, y.energy].concat());
+        assert_eq!(w.outcome, [x.outcome, y.outcome].concat());
+    }
+    for k in 0..4 {
+        let (env, i) = if k < 2 { (&a, k) } else { (&b, k - 2) };
+        assert_eq!(whole.world_seed(k), env.world_seed(i));
+        assert_eq!(whole.world(k).unwrap().wolves, env.world(i).unwrap().wolves);
+    }
+    assert!(whole.world_seed(0).unwrap().1 >= 2, "expected several episodes per world");
+}
+
+#[test]
+fn autoreset_keeps_the_final_observation_and_starts_a_new_episode() {
+    let mut p = Params::default();
+    p.world.max_steps = 5;
+    let mut env = BatchEnv::new(p, 2, Learners::Wolves, 0, true, Some(1)).unwrap();
+    let first = env.reset(Some(0)).unwrap();
+    let acts = vec![0.0f32; 2 * 5 * 2];
+    let mut last = first.clone();
+    for t in 1..=5 {
+        let o = env.step(&acts, &[]).unwrap();
+        if t < 5 {
+            assert!(o.truncated.iter().all(|x| !x));
+            last = o;
+            continue;
+        }
+        assert_eq!(o.truncated, vec![true, true]);
+        assert_eq!(o.terminated, vec![false, false]);
+        assert_eq!(o.outcome, vec![3, 3]);
+        assert_eq!(o.steps, vec![5, 5]);
+        // The new episode's clock is 0; the final observation's clock is 5/5.
+        let dw = env.wolf_obs_dim();
+        assert_eq!(o.obs_wolves[8], 0.0);
+        assert_eq!(o.final_obs_wolves[8], 1.0);
+        // The final observation continues the previous one (clock 4/5 → 5/5) ...
+        assert!((last.obs_wolves[8] - 0.8).abs() < 1e-6);
+        // ... and the new episode is episode 1 of world 0's seed, not a copy of episode 0.
+        assert_eq!(env.world_seed(0), Some((0, 1)));
+        assert_ne!(&o.obs_wolves[..dw], &first.obs_wolves[..dw]);
+    }
+}
+
+#[test]
+fn invalid_actions_are_named_and_move_nothing() {
+    let mut env = BatchEnv::new(Params::default(), 3, Learners::Wolves, 0, true, Some(1)).unwrap();
+    let before = env.world(1).unwrap().wolves.clone();
+    let mut acts = vec![0.0f32; 3 * 5 * 2];
+    acts[(5 + 2) * 2 + 1] = f32::NAN;
+    let e = env.step(&acts, &[]).unwrap_err().to_string();
+    assert!(e.contains("wolf_2") && e.contains("world 1"), "{e}");
+    assert_eq!(env.world(1).unwrap().wolves, before);
+    assert_eq!(env.world(0).unwrap().t, 0);
+    let e = env.step(&acts[..4], &[]).unwrap_err().to_string();
+    assert!(e.contains("expected 30"), "{e}");
+    let e = env.step(&vec![0.0; 30], &[0.0, 0.0]).unwrap_err().to_string();
+    assert!(e.contains("scripted"), "{e}");
+}
+
+/// Learners driven by `expert_actions` against the same seeds as the scripted run.
+fn expert_capture_rate(mode: ActionMode, learners: Learners, episodes: usize) -> (usize, usize) {
+    let mut p = Params::default();
+    p.env.action_mode = mode;
+    let mut env = BatchEnv::new(p.clone(), episodes, learners, 0, false, Some(2)).unwrap();
+    env.reset(Some(0)).unwrap();
+    for _ in 0..p.world.max_steps {
+        let (wa, ta) = env.expert_actions();
+        env.step(&wa, &ta).unwrap();
+    }
+    let expert = (0..episodes).filter(|&e| env.world(e).unwrap().outcome == Outcome::Captured).count();
+    let scripted = run_episodes(&p, 0, 0, episodes as u64, None, false, Some(2)).unwrap().iter().filter(|r| r.outcome == Outcome::Captured).count();
+    (expert, scripted)
+}
+
+#[test]
+fn following_the_expert_reproduces_the_scripted_laws() {
+    for (mode, learners) in [(ActionMode::Unicycle, Learners::Wolves), (ActionMode::Unicycle, Learners::Targets), (ActionMode::Velocity, Learners::Wolves), (ActionMode::Velocity, Learners::All)] {
+        let (expert, scripted) = expert_capture_rate(mode, learners, 100);
+        assert!(expert.abs_diff(scripted) <= 3, "{mode:?} {learners:?}: expert {expert} vs scripted {scripted} of 100");
+    }
+}
+
+#[test]
+fn expert_in_unicycle_mode_tracks_the_scripted_trajectory_closely() {
+    // Same seed, wolves learning from the expert vs all scripted: the first 50 steps agree to
+    // f32 rounding of the actions (positions within 1e-3 m).
+    let p = Params::default();
+    let mut env = BatchEnv::new(p.clone(), 1, Learners::Wolves, 7, false, Some(1)).unwrap();
+    let mut scripted = BatchEnv::new(p, 1, Learners::None, 7, false, Some(1)).unwrap();
+    for t in 0..50 {
+        let (wa, _) = env.expert_actions();
+        env.step(&wa, &[]).unwrap();
+        scripted.step(&[], &[]).unwrap();
+        let (a, b) = (env.world(0).unwrap(), scripted.world(0).unwrap());
+        for (x, y) in a.wolves.iter().zip(&b.wolves) {
+            assert!((x.pos - y.pos).norm() < 1e-3, "step {t}: {:?} vs {:?}", x.pos, y.pos);
+        }
+        if b.is_done() {
+            break;
+        }
+    }
+}
