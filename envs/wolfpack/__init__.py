@@ -4,12 +4,36 @@ Public entry points (see API.md in the project docs):
 
 - :func:`load_params` — read and validate a scenario (``params.yaml`` plus dotted overrides).
 - :func:`run_episodes` — run scripted episodes in parallel (the engine behind ``wolfpack hunt``).
+- :func:`parallel_env` — PettingZoo ``ParallelEnv`` (either side learning).
+- ``gymnasium.make("wolfpack/Escape-v0")`` — one learning target (registered on import).
+- :func:`make_vec_env` — SB3 ``VecEnv`` over the native batch (needs stable-baselines3).
+- :class:`BatchEnv` — the native batch itself.
 - ``wolfpack`` command line: ``wolfpack hunt --help``.
 """
 
 from wolfpack._core import __version__
 from wolfpack.config import DEFAULT_PARAMS_PATH, load_params, load_layout
 from wolfpack.episodes import run_episodes, summarize
+from wolfpack.batch import BatchEnv
+from wolfpack.parallel_env import parallel_env
+
+
+def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, **overrides):
+    """An SB3 ``VecEnv`` over the native batch: one slot per learning agent per world (see
+    :mod:`wolfpack.vec_env`). Imports stable-baselines3 on first use."""
+    from wolfpack.vec_env import make_vec_env as _make
+
+    return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, **overrides)
+
+
+def _register_gymnasium() -> None:
+    import gymnasium
+
+    if "wolfpack/Escape-v0" not in gymnasium.registry:
+        gymnasium.register(id="wolfpack/Escape-v0", entry_point="wolfpack.gym_env:EscapeEnv")
+
+
+_register_gymnasium()
 
 __all__ = [
     "__version__",
@@ -18,4 +42,7 @@ __all__ = [
     "load_layout",
     "run_episodes",
     "summarize",
+    "BatchEnv",
+    "parallel_env",
+    "make_vec_env",
 ]

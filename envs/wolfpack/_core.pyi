@@ -26,3 +26,34 @@ def run_episodes(
 ) -> list[dict[str, Any]]:
     """Runs scripted episodes ``first .. first+count`` (seed ``seed + k``) in parallel with the
     GIL released; one result dict per episode, in order."""
+
+class BatchEnv:
+    """The native batch (private; see ``wolfpack.BatchEnv``): ``num_envs`` worlds stepped
+    together with the GIL released."""
+
+    num_envs: int
+    n_wolves: int
+    n_targets: int
+    wolf_obs_dim: int
+    target_obs_dim: int
+    params: dict[str, Any]
+
+    def __init__(
+        self,
+        params: dict[str, Any] | None = None,
+        num_envs: int = 1,
+        learners: str = "wolves",
+        seed: int = 0,
+        autoreset: bool = True,
+        threads: int | None = None,
+    ) -> None: ...
+    def reset(self, seed: int | None = None) -> dict[str, Any]:
+        """Resets every world (world i seeded ``seed + i``, else its next episode)."""
+    def reset_world(self, index: int, seed: int | None = None, layout: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Resets one world, optionally seeded and from a LAYOUT."""
+    def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, Any]:
+        """One step; float32 C-contiguous actions [E, N, 2] / [E, M, 2] for the learning sides."""
+    def expert_actions(self) -> tuple[Any, Any]:
+        """The scripted laws' actions for the learning sides (None for the others)."""
+    def world_state(self, index: int) -> dict[str, Any]:
+        """World ``index``'s state as numpy arrays and lists."""

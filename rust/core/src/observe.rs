@@ -164,6 +164,10 @@ fn write_relative(me: &AgentState, other: &AgentState, scale: f64, out: &mut [f3
 }
 
 /// Lidar rays into `out` (its length is the ray count); returns that count.
+///
+/// Each obstacle is tested only against the rays inside the angular window of its bounding
+/// disc, and only where it could still beat the ray's nearest hit so far: the exact casts
+/// (parry) run a few times per agent instead of rays × obstacles times.
 fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -> usize {
     let rays = out.len();
     if rays == 0 {
@@ -173,21 +177,48 @@ fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -
     let [x0, y0, x1, y1] = p.world.border;
     let arena = Aabb::new(Point2::new(x0, y0), Point2::new(x1, y1));
     let origin = Point2::from(me.pos);
-    for (k, o) in out.iter_mut().enumerate() {
-        let dir = unit(me.theta + std::f64::consts::TAU * k as f64 / rays as f64);
-        let ray = Ray::new(origin, dir);
+    let step = std::f64::consts::TAU / rays as f64;
+    let ray = |k: usize| Ray::new(origin, unit(me.theta + step * k as f64));
+    // Nearest hit so far per ray (metres); on the stack for up to 64 rays.
+    let mut best = [0f64; 64];
+    let mut big: Vec<f64>;
+    let best: &mut [f64] = if rays <= best.len() {
+        &mut best[..rays]
+    } else {
+        big = vec![0.0; rays];
+        &mut big
+    };
+    for (k, b) in best.iter_mut().enumerate() {
         // From inside, a non-solid cast reports the distance to the boundary.
-        let mut best = arena.cast_local_ray(&ray, range, false).unwrap_or(range);
-        for ob in obstacles {
-            // Cull: the obstacle's bounding disc is out of reach.
-            if (ob.center - me.pos).norm() - ob.radius > best {
+        *b = arena.cast_local_ray(&ray(k), range, false).unwrap_or(range);
+    }
+    for ob in obstacles {
+        let to = ob.center - me.pos;
+        let dc = to.norm();
+        if dc - ob.radius >= range {
+            continue;
+        }
+        // Rays whose direction lies within the bounding disc's angular window.
+        let (first, count) = if dc <= ob.radius {
+            (0, rays)
+        } else {
+            let half = (ob.radius / dc).asin();
+            let start = crate::math::wrap(to.y.atan2(to.x) - half - me.theta);
+            let first = (start / step).ceil() as usize;
+            let last = ((start + 2.0 * half) / step).floor() as usize;
+            (first, (last + 1).saturating_sub(first).min(rays))
+        };
+        for k in (first..first + count).map(|k| k % rays) {
+            if dc - ob.radius >= best[k] {
                 continue;
             }
-            if let Some(t) = ray_obstacle(ob, &ray, best) {
-                best = best.min(t);
+            if let Some(t) = ray_obstacle(ob, &ray(k), best[k]) {
+                best[k] = best[k].min(t);
             }
         }
-        *o = (best / range).clamp(0.0, 1.0) as f32;
+    }
+    for (o, b) in out.iter_mut().zip(best.iter()) {
+        *o = (b / range).clamp(0.0, 1.0) as f32;
     }
     rays
 }
@@ -302,6 +333,36 @@ mod tests {
         let want = [1.5 / 3.0, 1.0 / 3.0, 1.5 / 3.0, 1.0];
         for (g, w) in out.iter().zip(want) {
             assert!((*g as f64 - w).abs() < 1e-6, "{out:?}");
+        }
+    }
+
+    /// The culled lidar equals casting every ray against every obstacle.
+    #[test]
+    fn culled_lidar_equals_brute_force() {
+        let mut p = Params::default();
+        p.env.lidar.rays = 37;
+        let p = Arc::new(p);
+        for seed in 0..40 {
+            let mut w = World::new(p.clone(), seed).unwrap();
+            for _ in 0..(seed % 7) * 10 {
+                w.step();
+            }
+            for a in w.wolves.iter().chain(&w.targets) {
+                let mut fast = vec![0f32; 37];
+                lidar(&p, a, &w.obstacles, &mut fast);
+                let [x0, y0, x1, y1] = p.world.border;
+                let arena = Aabb::new(Point2::new(x0, y0), Point2::new(x1, y1));
+                for (k, f) in fast.iter().enumerate() {
+                    let ray = Ray::new(Point2::from(a.pos), unit(a.theta + std::f64::consts::TAU * k as f64 / 37.0));
+                    let mut best = arena.cast_local_ray(&ray, 3.0, false).unwrap_or(3.0);
+                    for ob in &w.obstacles {
+                        if let Some(t) = ray_obstacle(ob, &ray, 3.0) {
+                            best = best.min(t);
+                        }
+                    }
+                    assert_eq!(*f, (best / 3.0).clamp(0.0, 1.0) as f32, "seed {seed} ray {k}");
+                }
+            }
         }
     }
 }

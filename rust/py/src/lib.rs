@@ -6,11 +6,12 @@
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use numpy::{PyArray1, PyArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pythonize::pythonize;
+use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
 use wolfpack_core::episode::{run_episodes as core_run_episodes, EpisodeResult, Trajectory};
 use wolfpack_core::world::{Layout, World};
 use wolfpack_core::{Error, Params};
@@ -227,6 +228,190 @@ fn run_episodes<'py>(
     Ok(out)
 }
 
+/// Actions of one side as a float32 [E, L, 2] array (any other dtype, shape or layout is a
+/// ValueError naming the side); `None` when absent.
+fn actions_from<'py>(obj: Option<&Bound<'py, PyAny>>, side: &str, shape: [usize; 3]) -> PyResult<Option<PyReadonlyArray3<'py, f32>>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else { return Ok(None) };
+    let arr: PyReadonlyArray3<f32> = obj.extract().map_err(|_| {
+        let what = obj.getattr("dtype").and_then(|d| d.str()).map(|d| format!("array of dtype {d}")).unwrap_or_else(|_| obj.get_type().name().map(|n| n.to_string()).unwrap_or_default());
+        let ndim = obj.getattr("ndim").map(|d| d.to_string()).unwrap_or_else(|_| "?".into());
+        PyValueError::new_err(format!("{side} actions: expected a float32 array of shape {shape:?}, got {what} with {ndim} dimensions"))
+    })?;
+    if arr.shape() != shape {
+        return Err(PyValueError::new_err(format!("{side} actions: expected shape {shape:?}, got {:?}", arr.shape())));
+    }
+    if !arr.is_c_contiguous() {
+        return Err(PyValueError::new_err(format!("{side} actions: array must be C-contiguous")));
+    }
+    Ok(Some(arr))
+}
+
+fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyResult<Bound<'py, PyDict>> {
+    let e = env.num_envs();
+    let (n, m) = (env.n_wolves(), env.n_targets());
+    let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
+    let d = PyDict::new(py);
+    let l = env.learners();
+    if l.wolves() {
+        d.set_item("obs_wolves", array(py, o.obs_wolves, &[e, n, dw])?)?;
+        d.set_item("rewards_wolves", array(py, o.rewards_wolves, &[e, n])?)?;
+        if !o.final_obs_wolves.is_empty() {
+            d.set_item("final_obs_wolves", array(py, o.final_obs_wolves, &[e, n, dw])?)?;
+        }
+    }
+    if l.targets() {
+        d.set_item("obs_targets", array(py, o.obs_targets, &[e, m, dt])?)?;
+        d.set_item("rewards_targets", array(py, o.rewards_targets, &[e, m])?)?;
+        if !o.final_obs_targets.is_empty() {
+            d.set_item("final_obs_targets", array(py, o.final_obs_targets, &[e, m, dt])?)?;
+        }
+    }
+    d.set_item("terminated", PyArray1::from_vec(py, o.terminated))?;
+    d.set_item("truncated", PyArray1::from_vec(py, o.truncated))?;
+    d.set_item("outcome", PyArray1::from_vec(py, o.outcome))?;
+    d.set_item("steps", PyArray1::from_vec(py, o.steps))?;
+    d.set_item("capture_step", array(py, o.capture_step, &[e, m])?)?;
+    d.set_item("energy", array(py, o.energy, &[e, n + m])?)?;
+    d.set_item("collisions", array(py, o.collisions, &[e, n + m])?)?;
+    d.set_item("distance", array(py, o.distance, &[e, n + m])?)?;
+    Ok(d)
+}
+
+/// The native batch: `num_envs` worlds stepped together on a thread pool with the GIL
+/// released. See `wolfpack.BatchEnv` for the documented Python face; this class is private.
+#[pyclass(module = "wolfpack._core", name = "BatchEnv")]
+struct PyBatchEnv {
+    inner: BatchEnv,
+}
+
+#[pymethods]
+impl PyBatchEnv {
+    #[new]
+    #[pyo3(signature = (params=None, num_envs=1, learners="wolves", seed=0, autoreset=true, threads=None))]
+    fn new(params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>) -> PyResult<Self> {
+        let p = match params {
+            Some(obj) => params_from(obj)?,
+            None => Params::default(),
+        };
+        let l = Learners::parse(learners).map_err(value_error)?;
+        let inner = guarded(|| BatchEnv::new(p, num_envs, l, seed, autoreset, threads))?.map_err(value_error)?;
+        Ok(Self { inner })
+    }
+
+    #[getter]
+    fn num_envs(&self) -> usize {
+        self.inner.num_envs()
+    }
+    #[getter]
+    fn n_wolves(&self) -> usize {
+        self.inner.n_wolves()
+    }
+    #[getter]
+    fn n_targets(&self) -> usize {
+        self.inner.n_targets()
+    }
+    #[getter]
+    fn wolf_obs_dim(&self) -> usize {
+        self.inner.wolf_obs_dim()
+    }
+    #[getter]
+    fn target_obs_dim(&self) -> usize {
+        self.inner.target_obs_dim()
+    }
+    /// The params in force, complete and resolved (`capture.count` filled in).
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        params_to_py(py, &self.inner.params().resolved())
+    }
+
+    /// Resets every world (world i seeded `seed + i` when a seed is given, else its next
+    /// episode). Returns the output dict with observations and infos.
+    #[pyo3(signature = (seed=None))]
+    fn reset<'py>(&mut self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyDict>> {
+        let env = &mut self.inner;
+        let out = py.detach(|| guarded(|| env.reset(seed)))?.map_err(value_error)?;
+        step_output_to_py(py, &self.inner, out)
+    }
+
+    /// Resets world `index` alone, optionally seeded and from a LAYOUT dict.
+    #[pyo3(signature = (index, seed=None, layout=None))]
+    fn reset_world<'py>(&mut self, py: Python<'py>, index: usize, seed: Option<u64>, layout: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let l = match layout {
+            Some(obj) => layout_from(obj)?,
+            None => None,
+        };
+        let env = &mut self.inner;
+        let out = py.detach(|| guarded(|| env.reset_world(index, seed, l.as_ref())))?.map_err(value_error)?;
+        step_output_to_py(py, &self.inner, out)
+    }
+
+    /// One step. `wolf_actions` [E, N, 2] and `target_actions` [E, M, 2], float32, C-contiguous,
+    /// given for (and only for) the learning sides.
+    #[pyo3(signature = (wolf_actions=None, target_actions=None))]
+    fn step<'py>(&mut self, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let e = self.inner.num_envs();
+        let wa = actions_from(wolf_actions, "wolf", [e, self.inner.n_wolves(), 2])?;
+        let ta = actions_from(target_actions, "target", [e, self.inner.n_targets(), 2])?;
+        let ws: &[f32] = match &wa {
+            Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?,
+            None => &[],
+        };
+        let ts: &[f32] = match &ta {
+            Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?,
+            None => &[],
+        };
+        let env = &mut self.inner;
+        let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
+        step_output_to_py(py, &self.inner, out)
+    }
+
+    /// The scripted laws' actions for the learning sides: (wolves [E, N, 2] or None,
+    /// targets [E, M, 2] or None), float32.
+    fn expert_actions<'py>(&mut self, py: Python<'py>) -> PyResult<(Option<Bound<'py, PyAny>>, Option<Bound<'py, PyAny>>)> {
+        let env = &mut self.inner;
+        let (aw, at) = py.detach(|| guarded(|| env.expert_actions()))?;
+        let e = self.inner.num_envs();
+        let l = self.inner.learners();
+        let w = if l.wolves() { Some(array(py, aw, &[e, self.inner.n_wolves(), 2])?) } else { None };
+        let t = if l.targets() { Some(array(py, at, &[e, self.inner.n_targets(), 2])?) } else { None };
+        Ok((w, t))
+    }
+
+    /// World `index`'s state: wolves [N, 5] and targets [M, 5] (x, y, θ, v, ω), energy [N+M],
+    /// interaction [(N+M), (N+M)] uint8, captured [M], obstacles (list of dicts), step,
+    /// outcome, seed, episode.
+    fn world_state<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
+        let w = self.inner.world(index).ok_or_else(|| PyValueError::new_err(format!("world index {index} out of range (num_envs = {})", self.inner.num_envs())))?;
+        let (n, m) = (w.n_wolves(), w.n_targets());
+        let pose = |a: &wolfpack_core::world::AgentState| [a.pos.x, a.pos.y, a.theta, a.v, a.omega];
+        let d = PyDict::new(py);
+        d.set_item("wolves", array(py, w.wolves.iter().flat_map(pose).collect(), &[n, 5])?)?;
+        d.set_item("targets", array(py, w.targets.iter().flat_map(pose).collect(), &[m, 5])?)?;
+        d.set_item("energy", PyArray1::from_vec(py, w.wolves.iter().chain(&w.targets).map(|a| a.energy).collect()))?;
+        d.set_item("interaction", array(py, w.interaction.clone(), &[n + m, n + m])?)?;
+        d.set_item("captured", PyArray1::from_vec(py, w.target_captured.clone()))?;
+        let obstacles = PyList::empty(py);
+        for o in &w.obstacles {
+            let od = PyDict::new(py);
+            od.set_item("kind", if o.is_polygon() { "polygon" } else { "circle" })?;
+            od.set_item("moving", o.kind.is_moving())?;
+            od.set_item("center", PyArray1::from_vec(py, vec![o.center.x, o.center.y]))?;
+            od.set_item("radius", o.radius)?;
+            od.set_item("angle", o.angle)?;
+            let k = o.vertices.len();
+            od.set_item("vertices", array(py, o.vertices.iter().flat_map(|v| [v.x, v.y]).collect(), &[k, 2])?)?;
+            obstacles.append(od)?;
+        }
+        d.set_item("obstacles", obstacles)?;
+        d.set_item("step", w.t)?;
+        d.set_item("outcome", w.outcome.as_str())?;
+        let (seed, episode) = self.inner.world_seed(index).unwrap_or_default();
+        d.set_item("seed", seed)?;
+        d.set_item("episode", episode)?;
+        Ok(d)
+    }
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // Panics are caught at the border and reported as RuntimeError; keep their default
@@ -237,5 +422,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate_params, m)?)?;
     m.add_function(wrap_pyfunction!(check_layout, m)?)?;
     m.add_function(wrap_pyfunction!(run_episodes, m)?)?;
+    m.add_class::<PyBatchEnv>()?;
     Ok(())
 }

@@ -1,0 +1,145 @@
+"""The native batch: ``E`` worlds stepped together in Rust, the engine behind every adapter.
+
+:class:`BatchEnv` is the fastest way to roll out wolfpack: one call steps all worlds on a
+thread pool with the GIL released, the scripted side runs inside the core, and every output is
+a fresh numpy array. The PettingZoo, Gymnasium and SB3 environments are thin views of it.
+Observations, actions and rewards are documented in :mod:`wolfpack.parallel_env`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from wolfpack import _core
+from wolfpack.config import apply_overrides, load_params
+
+LEARNERS = ("wolves", "targets", "all", "none")
+
+#: ``outcome`` codes of :meth:`BatchEnv.step` → names.
+OUTCOMES = ("running", "captured", "collision", "timeout")
+
+
+def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Mapping[str, Any]) -> dict:
+    """``params`` (None: the documented scenario; a path to YAML; or a dict) with ``overrides``
+    applied, validated. Override keys are dotted (``"world.wolves"``) or use ``__`` in place of
+    the dots (``world__wolves=8`` as a keyword argument)."""
+    dotted = {k.replace("__", "."): v for k, v in overrides.items()}
+    if params is None or isinstance(params, (str, Path)):
+        return load_params(params, dotted)
+    if not isinstance(params, Mapping):
+        raise ValueError(f"params must be None, a path or a dict, got {type(params).__name__}")
+    return _core.validate_params(apply_overrides(dict(params), dotted))
+
+
+def check_learners(learners: str) -> str:
+    if learners not in LEARNERS:
+        raise ValueError(f"learners must be one of {', '.join(map(repr, LEARNERS))}, got {learners!r}")
+    return learners
+
+
+def as_actions(x: Any, what: str, shape: tuple[int, ...]) -> np.ndarray:
+    """An action array as C-contiguous float32 of ``shape``; ValueError naming ``what`` when the
+    shape or dtype is wrong (non-finite values are caught by the core, which names the agent)."""
+    a = np.asarray(x)
+    if a.dtype.kind != "f":
+        raise ValueError(f"{what}: actions must be floating point, got dtype {a.dtype}")
+    if a.shape != shape:
+        raise ValueError(f"{what}: expected shape {shape}, got {a.shape}")
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+class BatchEnv:
+    """``num_envs`` worlds in one native batch.
+
+    Args:
+        params: None (the documented scenario), a YAML path, or a params dict.
+        num_envs: number of worlds E; world i is seeded ``seed + i``.
+        learners: ``"wolves"``, ``"targets"``, ``"all"`` or ``"none"``; the other side follows
+            its scripted law (``policies.*`` in params).
+        seed: base seed.
+        autoreset: reset a finished world within the same step (SB3's convention), keeping
+            its last observation in ``final_obs_*``.
+        threads: worker threads (None: all cores). Results never depend on it.
+        **overrides: params overrides, ``world__wolves=8`` or ``**{"world.wolves": 8}``.
+
+    :meth:`reset` and :meth:`step` return a dict of fresh arrays: ``obs_wolves`` [E, N, Dw] and
+    ``rewards_wolves`` [E, N] (when wolves learn), ``obs_targets`` [E, M, Dt] and
+    ``rewards_targets`` [E, M] (when targets learn), ``terminated`` / ``truncated`` [E] bool,
+    ``final_obs_*`` (autoreset; valid where the episode ended), and the infos of the episode the
+    step belongs to: ``outcome`` [E] uint8 (see :data:`OUTCOMES`), ``steps`` [E],
+    ``capture_step`` [E, M] (−1: not captured), ``energy``, ``collisions``, ``distance``
+    [E, N+M] (wolves: to the nearest uncaptured target; targets: to the nearest wolf).
+    """
+
+    def __init__(
+        self,
+        params: str | Path | Mapping[str, Any] | None = None,
+        *,
+        num_envs: int = 1,
+        learners: str = "wolves",
+        seed: int = 0,
+        autoreset: bool = True,
+        threads: int | None = None,
+        **overrides: Any,
+    ) -> None:
+        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, **overrides)
+        self.learners = check_learners(learners)
+        if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
+            raise ValueError(f"threads must be None or an integer >= 1, got {threads!r}")
+        if not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        self._core = _core.BatchEnv(resolve_params(params, overrides), int(num_envs), learners, int(seed), bool(autoreset), threads)
+        self.params: dict = self._core.params
+        self.num_envs: int = self._core.num_envs
+        self.n_wolves: int = self._core.n_wolves
+        self.n_targets: int = self._core.n_targets
+        self.wolf_obs_dim: int = self._core.wolf_obs_dim
+        self.target_obs_dim: int = self._core.target_obs_dim
+
+    def __reduce__(self):
+        # Constructor-argument pickling: the copy is a fresh batch built the same way.
+        return (_rebuild, (type(self), self._init_kwargs))
+
+    @property
+    def learns_wolves(self) -> bool:
+        return self.learners in ("wolves", "all")
+
+    @property
+    def learns_targets(self) -> bool:
+        return self.learners in ("targets", "all")
+
+    def reset(self, seed: int | None = None) -> dict[str, np.ndarray]:
+        """Resets every world; with ``seed``, world i is re-seeded ``seed + i``."""
+        return self._core.reset(seed)
+
+    def reset_world(self, index: int, seed: int | None = None, layout: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
+        """Resets world ``index`` alone (seeded ``seed`` itself), optionally from a LAYOUT."""
+        return self._core.reset_world(index, seed, layout)
+
+    def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, np.ndarray]:
+        """Steps every world. Actions [E, N, 2] / [E, M, 2] in [-1, 1] (clipped), for (and only
+        for) the learning sides."""
+        wa = as_actions(wolf_actions, "wolf actions", (self.num_envs, self.n_wolves, 2)) if wolf_actions is not None else None
+        ta = as_actions(target_actions, "target actions", (self.num_envs, self.n_targets, 2)) if target_actions is not None else None
+        if self.learns_wolves and wa is None:
+            raise ValueError("wolf actions are required: wolves are learners here")
+        if self.learns_targets and ta is None:
+            raise ValueError("target actions are required: targets are learners here")
+        return self._core.step(wa, ta)
+
+    def expert_actions(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The scripted laws' actions for the learning sides, in their action space."""
+        return self._core.expert_actions()
+
+    def world_state(self, index: int = 0) -> dict[str, Any]:
+        """World ``index``'s full state (see API.md ``world_state``)."""
+        return self._core.world_state(index)
+
+
+def _rebuild(cls, kwargs):
+    return cls(**kwargs)

@@ -1,0 +1,110 @@
+"""``wolfpack/Escape-v0``: one learning target against the scripted wolves (Gymnasium).
+
+The single-agent view of :mod:`wolfpack.parallel_env` with ``learners="targets"``: the same
+target observation, action space, rewards, termination and infos (see that module's
+docstring). The wolves follow ``policies.wolves`` (default ``seed000``). Needs
+``world.targets == 1``.
+
+    import gymnasium, wolfpack
+    env = gymnasium.make("wolfpack/Escape-v0")            # or ..., params="my.yaml", world__wolves=4
+
+Arguments: ``params`` (None, YAML path or dict), ``render_mode`` (None), ``seed`` (the base
+seed when ``reset`` gets none), ``**overrides`` (``world__wolves=4`` or
+``**{"world.wolves": 4}``). ``reset(options={"layout": LAYOUT})`` starts from an explicit
+state. ``env.unwrapped.world_state()`` / ``env.unwrapped.expert_actions()`` as in the
+ParallelEnv (the expert is the scripted escape law).
+
+Version History: v0, first release.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import gymnasium
+import numpy as np
+
+from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.parallel_env import ACTION_SPACE, check_render_mode, observation_box
+
+
+class EscapeEnv(gymnasium.Env):
+    """See the module docstring."""
+
+    metadata = {"render_modes": [], "render_fps": 10}
+
+    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, render_mode: str | None = None, seed: int = 0, **overrides: Any) -> None:
+        self._init_kwargs = dict(params=params, render_mode=render_mode, seed=seed, **overrides)
+        self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
+        self._batch = BatchEnv(params, num_envs=1, learners="targets", seed=seed, autoreset=False, threads=1, **overrides)
+        if self._batch.n_targets != 1:
+            raise ValueError(f"Escape-v0 has one learning target; world.targets is {self._batch.n_targets} (use wolfpack.parallel_env for several)")
+        self.observation_space = observation_box(self._batch.target_obs_dim)
+        self.action_space = ACTION_SPACE
+        self._seed = seed
+        self._started = False
+        self._done = False
+
+    def __reduce__(self):
+        return (_rebuild, (type(self), self._init_kwargs))
+
+    @property
+    def params(self) -> dict:
+        return self._batch.params
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        layout = None
+        if options:
+            # Other keys are ignored, as Gymnasium and PettingZoo envs do with options they
+            # do not know (PettingZoo's own API test passes one).
+            layout = options.get("layout")
+        if seed is None and not self._started:
+            seed = self._seed
+        out = self._batch.reset_world(0, seed, layout)
+        self._started, self._done = True, False
+        return out["obs_targets"][0, 0], self._info(out)
+
+    def step(self, action: Any):
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        if self._done:
+            raise RuntimeError("the episode is over; call reset() to start a new one")
+        a = np.asarray(action)
+        if a.dtype.kind != "f":
+            raise ValueError(f"action must be floating point, got dtype {a.dtype}")
+        if a.shape != (2,):
+            raise ValueError(f"action: expected shape (2,), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action is not finite: {a.tolist()}")
+        out = self._batch.step(None, a.reshape(1, 1, 2))
+        terminated, truncated = bool(out["terminated"][0]), bool(out["truncated"][0])
+        self._done = terminated or truncated
+        return out["obs_targets"][0, 0], float(out["rewards_targets"][0, 0]), terminated, truncated, self._info(out)
+
+    def _info(self, out: dict) -> dict:
+        n = self._batch.n_wolves
+        cap = int(out["capture_step"][0, 0])
+        return {
+            "outcome": OUTCOMES[int(out["outcome"][0])],
+            "capture_step": cap if cap >= 0 else None,
+            "energy": float(out["energy"][0, n]),
+            "collisions": int(out["collisions"][0, n]),
+            "distance": float(out["distance"][0, n]),
+        }
+
+    def world_state(self) -> dict[str, Any]:
+        """The world's state (see ``WolfpackParallelEnv.world_state``)."""
+        return self._batch.world_state(0)
+
+    def expert_actions(self) -> np.ndarray:
+        """The scripted target law's action now (float32, shape (2,))."""
+        return self._batch.expert_actions()[1][0, 0].copy()
+
+    def render(self):
+        return None
+
+
+def _rebuild(cls, kwargs):
+    return cls(**kwargs)

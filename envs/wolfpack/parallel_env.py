@@ -1,0 +1,274 @@
+"""wolfpack as a PettingZoo ``ParallelEnv``: wolves hunt targets among moving obstacles.
+
+This docstring is the environment's specification.
+
+Agents
+    ``wolf_0 … wolf_{N-1}`` and ``target_0 … target_{M-1}``; only the learning side's agents
+    (``learners``) are PettingZoo agents, the other side follows its scripted law inside the
+    core (``policies.wolves``: ``seed000``; ``policies.targets``: ``escape``, ``random``,
+    ``still``). Defaults (``params.yaml``): 5 wolves, 1 target, 12 obstacles, 20 m × 20 m arena,
+    Ts = 0.1 s, 300 steps.
+
+Action Space
+    ``Box(-1, 1, (2,), float32)`` per agent; values outside [-1, 1] are clipped, NaN/inf raise
+    ``ValueError``. ``env.action_mode: unicycle`` (default): ``v = (a₀+1)/2 · v_max``,
+    ``ω = a₁ · ω_max``. ``velocity``: ``a`` is a desired velocity in the agent's frame (x ahead,
+    y left) in units of v_max, norm capped at 1, turned into (v, ω) by the saturator of SPEC §2
+    exactly as the analytic laws are. Every move then passes the world's feasibility filter, and
+    a target's speed is capped by the fatigue curve from its first sighting on.
+
+Observation Space
+    ``Box(-inf, inf, (D,), float32)``, egocentric: relative positions in the agent's frame
+    (x ahead, y left), relative headings as sin/cos of (other θ − own θ). N wolves, M targets,
+    K = ``env.lidar.rays``; S = the longer arena side; r = the observer's sensing radius (3 m).
+
+    ==========================  ===========================================================
+    entries                     meaning
+    ==========================  ===========================================================
+    0                           own speed / v_max
+    1                           own turn rate / ω_max
+    2, 3                        sin θ, cos θ (own heading, world frame)
+    4–7                         (x − x_min)/W, (x_max − x)/W, (y − y_min)/H, (y_max − y)/H
+    8                           step / max_steps
+    **wolf** 9 … 9+5M−1         per target (index order): sensed, dx/r, dy/r, sin Δθ, cos Δθ —
+                                all zero unless this wolf senses it now (distance ≤ r)
+    **wolf** next 4(N−1)        other wolves, nearest first: dx/S, dy/S, sin Δθ, cos Δθ
+                                (wolves communicate globally)
+    **target** 9                speed cap / v_max (the fatigue curve; 1 before any sighting)
+    **target** 10 … 10+5N−1     wolves, nearest first: in range, dx/r, dy/r, sin Δθ, cos Δθ —
+                                zero for wolves beyond r (masked)
+    next K                      lidar: ray k at θ + 2πk/K, distance to the first obstacle or
+                                wall / ``env.lidar.range`` (1 = nothing within range)
+    last N+M (optional)         ``env.interaction_row``: own row of the last step's
+                                interaction matrix (0/1)
+    ==========================  ===========================================================
+
+    Defaults: D = 46 for a wolf, 51 for a target.
+
+Rewards (``rewards.*`` in params, per agent and step)
+    Wolves: ``−time_penalty`` (0.01); ``+capture_bonus`` (10) to every wolf for each target
+    captured this step; ``−collision_penalty`` (10) when its body overlaps an obstacle or a
+    wolf; shaping ``shaping · (Φ(s') − Φ(s))`` (1.0) with ``Φ = −|d − r_h|``, d the distance to
+    the nearest uncaptured target and r_h = 0.65 the hunting radius, Φ = 0 at a capture or
+    collision (potential-based: the optimal policies are unchanged).
+    Targets: ``+survival`` (0.1) per step uncaptured; ``−capture_penalty`` (10) when captured;
+    ``−collision_penalty`` (10) when a (moving) obstacle overlaps it; 0 once captured.
+
+Termination / Truncation
+    Terminated when every target is captured (success) or a wolf collides (failure);
+    truncated at ``world.max_steps``. A captured target leaves ``agents`` at once (with M > 1
+    the others play on). ``infos[agent]``: ``outcome`` (running / captured / collision /
+    timeout), ``capture_step`` (target: its own; wolf: the episode's, else None), ``energy``
+    (Σ ½ m v² so far), ``collisions`` (steps in contact), ``distance`` (wolf: to the nearest
+    uncaptured target; target: to the nearest wolf).
+
+Arguments
+    ``parallel_env(params=None, *, learners="wolves", render_mode=None, seed=0, **overrides)``:
+    ``params`` is None (the documented scenario), a YAML path or a dict; overrides are dotted
+    keys (``**{"world.wolves": 8}``) or ``world__wolves=8``. ``reset(seed=None, options=None)``;
+    ``options={"layout": LAYOUT}`` starts from an explicit state (API.md) with this env's agent
+    counts. ``env.unwrapped.world_state()`` and ``env.unwrapped.expert_actions()`` as API.md.
+
+Version History
+    v0: first release.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from wolfpack.batch import OUTCOMES, BatchEnv
+
+ACTION_SPACE = spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+
+def observation_box(dim: int) -> spaces.Box:
+    return spaces.Box(-np.inf, np.inf, (dim,), np.float32)
+
+
+def check_render_mode(render_mode: str | None, allowed: tuple[str, ...]) -> str | None:
+    if render_mode is not None and render_mode not in allowed:
+        raise ValueError(f"render_mode must be None{''.join(', ' + repr(m) for m in allowed)}, got {render_mode!r}")
+    return render_mode
+
+
+class WolfpackParallelEnv(ParallelEnv):
+    """See the module docstring. Build it with :func:`wolfpack.parallel_env`."""
+
+    metadata = {"name": "wolfpack_v0", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(
+        self,
+        params: str | Path | Mapping[str, Any] | None = None,
+        *,
+        learners: str = "wolves",
+        render_mode: str | None = None,
+        seed: int = 0,
+        **overrides: Any,
+    ) -> None:
+        self._init_kwargs = dict(params=params, learners=learners, render_mode=render_mode, seed=seed, **overrides)
+        self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
+        self._batch = BatchEnv(params, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1, **overrides)
+        self.learners = learners
+        n, m = self._batch.n_wolves, self._batch.n_targets
+        self._wolves = [f"wolf_{i}" for i in range(n)] if self._batch.learns_wolves else []
+        self._targets = [f"target_{j}" for j in range(m)] if self._batch.learns_targets else []
+        self.possible_agents = self._wolves + self._targets
+        self.agents: list[str] = []
+        self._obs_spaces = {a: observation_box(self._batch.wolf_obs_dim) for a in self._wolves}
+        self._obs_spaces.update({a: observation_box(self._batch.target_obs_dim) for a in self._targets})
+        self._seed = seed
+        self._started = False
+
+    def __reduce__(self):
+        return (_rebuild, (type(self), self._init_kwargs))
+
+    @property
+    def params(self) -> dict:
+        """The resolved params in force."""
+        return self._batch.params
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self._obs_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        if agent not in self._obs_spaces:
+            raise KeyError(agent)
+        return ACTION_SPACE
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        layout = None
+        if options is not None:
+            if not isinstance(options, Mapping):
+                raise ValueError(f"options must be a dict, got {type(options).__name__}")
+            # Other keys are ignored, as Gymnasium and PettingZoo envs do with options they
+            # do not know (PettingZoo's own API test passes one).
+            layout = options.get("layout")
+        if seed is None and not self._started:
+            seed = self._seed
+        out = self._batch.reset_world(0, seed, layout)
+        self._started = True
+        self.agents = list(self.possible_agents)
+        self._captured = np.zeros(self._batch.n_targets, dtype=bool)
+        return self._observations(out), self._infos(out, self.agents)
+
+    def step(self, actions: Mapping[str, Any]):
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        if not self.agents and self.possible_agents:
+            raise RuntimeError("the episode is over (every agent is done); call reset() to start a new one")
+        if not isinstance(actions, Mapping):
+            raise ValueError(f"actions must be a dict agent -> action, got {type(actions).__name__}")
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"missing actions for {', '.join(missing)}")
+        unknown = [a for a in actions if a not in self.agents]
+        if unknown:
+            raise ValueError(f"actions for agents that are not active: {', '.join(map(str, unknown))} (active: {', '.join(self.agents)})")
+        n, m = self._batch.n_wolves, self._batch.n_targets
+        wa = np.zeros((1, n, 2), np.float32) if self._wolves else None
+        ta = np.zeros((1, m, 2), np.float32) if self._targets else None
+        for agent, a in actions.items():
+            arr = np.asarray(a)
+            if arr.dtype.kind != "f":
+                raise ValueError(f"action of {agent}: must be floating point, got dtype {arr.dtype}")
+            if arr.shape != (2,):
+                raise ValueError(f"action of {agent}: expected shape (2,), got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"action of {agent} is not finite: {arr.tolist()}")
+            kind, idx = agent.rsplit("_", 1)
+            (wa if kind == "wolf" else ta)[0, int(idx)] = arr
+        out = self._batch.step(wa, ta)
+        done_world = bool(out["terminated"][0] or out["truncated"][0])
+        captured = out["capture_step"][0] >= 0
+        obs = self._observations(out)
+        rewards = {}
+        for a in self.agents:
+            kind, idx = a.rsplit("_", 1)
+            rewards[a] = float(out["rewards_wolves" if kind == "wolf" else "rewards_targets"][0, int(idx)])
+        terminations = {}
+        truncations = {}
+        for a in self.agents:
+            kind, idx = a.rsplit("_", 1)
+            own_capture = kind == "target" and bool(captured[int(idx)])
+            terminations[a] = bool(out["terminated"][0]) or own_capture
+            truncations[a] = bool(out["truncated"][0]) and not terminations[a]
+        infos = self._infos(out, self.agents)
+        self.agents = [] if done_world else [a for a in self.agents if not terminations[a]]
+        return obs, rewards, terminations, truncations, infos
+
+    def _observations(self, out: dict) -> dict[str, np.ndarray]:
+        obs = {}
+        active = set(self.agents) if self.agents else set(self.possible_agents)
+        for i, a in enumerate(self._wolves):
+            if a in active:
+                obs[a] = out["obs_wolves"][0, i]
+        for j, a in enumerate(self._targets):
+            if a in active:
+                obs[a] = out["obs_targets"][0, j]
+        return obs
+
+    def _infos(self, out: dict, agents: list[str]) -> dict[str, dict]:
+        n = self._batch.n_wolves
+        outcome = OUTCOMES[int(out["outcome"][0])]
+        caps = out["capture_step"][0]
+        episode_capture = int(caps.max()) if outcome == "captured" else None
+        infos = {}
+        for a in agents:
+            kind, idx = a.rsplit("_", 1)
+            k = int(idx) if kind == "wolf" else n + int(idx)
+            cap = episode_capture if kind == "wolf" else (int(caps[int(idx)]) if caps[int(idx)] >= 0 else None)
+            d = float(out["distance"][0, k])
+            infos[a] = {
+                "outcome": outcome,
+                "capture_step": cap,
+                "energy": float(out["energy"][0, k]),
+                "collisions": int(out["collisions"][0, k]),
+                "distance": d,
+            }
+        return infos
+
+    def world_state(self) -> dict[str, Any]:
+        """The world's state (API.md): ``wolves`` [N, 5] and ``targets`` [M, 5] (x, y, θ, v, ω),
+        ``energy`` [N+M], ``interaction`` [(N+M), (N+M)] uint8, ``obstacles`` (list of dicts:
+        kind, moving, center, radius, angle, vertices [k, 2] in world coordinates), ``step``,
+        plus ``captured``, ``outcome``, ``seed``, ``episode``."""
+        return self._batch.world_state(0)
+
+    def expert_actions(self) -> dict[str, np.ndarray]:
+        """What the scripted law of each active agent's side would do now, as an action in this
+        env's action space (float32, shape (2,)). Following these actions reproduces the
+        scripted episode (to float32 rounding of the actions)."""
+        wa, ta = self._batch.expert_actions()
+        acts = {}
+        for a in self.agents:
+            kind, idx = a.rsplit("_", 1)
+            acts[a] = (wa if kind == "wolf" else ta)[0, int(idx)].copy()
+        return acts
+
+    def state(self) -> np.ndarray:
+        """The global state as one flat float32 vector: wolves and targets (x, y, θ, v, ω)."""
+        s = self.world_state()
+        return np.concatenate([s["wolves"].ravel(), s["targets"].ravel()]).astype(np.float32)
+
+    def render(self):
+        if self.render_mode is None:
+            return None
+        raise NotImplementedError  # pragma: no cover — no render modes are offered yet
+
+    def close(self) -> None:
+        pass
+
+
+def _rebuild(cls, kwargs):
+    return cls(**kwargs)
+
+
+def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, **overrides: Any) -> WolfpackParallelEnv:
+    """A PettingZoo ``ParallelEnv`` of one world (see this module's docstring)."""
+    return WolfpackParallelEnv(params, learners=learners, render_mode=render_mode, **overrides)
