@@ -26,7 +26,7 @@ import gymnasium
 import numpy as np
 
 from wolfpack.batch import OUTCOMES, BatchEnv
-from wolfpack.parallel_env import ACTION_SPACE, check_render_mode, observation_box
+from wolfpack.parallel_env import action_box, check_render_mode, observation_box
 
 
 class EscapeEnv(gymnasium.Env):
@@ -41,7 +41,7 @@ class EscapeEnv(gymnasium.Env):
         if self._batch.n_targets != 1:
             raise ValueError(f"Escape-v0 has one learning target; world.targets is {self._batch.n_targets} (use wolfpack.parallel_env for several)")
         self.observation_space = observation_box(self._batch.target_obs_dim)
-        self.action_space = ACTION_SPACE
+        self.action_space = action_box()
         self._seed = seed
         self._started = False
         self._done = False

@@ -18,7 +18,7 @@ Action Space
     a target's speed is capped by the fatigue curve from its first sighting on.
 
 Observation Space
-    ``Box(-inf, inf, (D,), float32)``, egocentric: relative positions in the agent's frame
+    ``Box(-1.5, 1.5, (D,), float32)``, egocentric: relative positions in the agent's frame
     (x ahead, y left), relative headings as sin/cos of (other θ − own θ). N wolves, M targets,
     K = ``env.lidar.rays``; S = the longer arena side; r = the observer's sensing radius (3 m).
 
@@ -84,11 +84,19 @@ from pettingzoo import ParallelEnv
 
 from wolfpack.batch import OUTCOMES, BatchEnv
 
-ACTION_SPACE = spaces.Box(-1.0, 1.0, (2,), np.float32)
+def action_box() -> spaces.Box:
+    """A new action space (each agent and env gets its own, so that seeding one space's
+    sampler does not reseed another's)."""
+    return spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+
+#: Every observation entry lies within ±OBS_BOUND (the largest are the other wolves' offsets,
+#: at most the arena's diagonal over its longer side, √2).
+OBS_BOUND = 1.5
 
 
 def observation_box(dim: int) -> spaces.Box:
-    return spaces.Box(-np.inf, np.inf, (dim,), np.float32)
+    return spaces.Box(-OBS_BOUND, OBS_BOUND, (dim,), np.float32)
 
 
 def check_render_mode(render_mode: str | None, allowed: tuple[str, ...]) -> str | None:
@@ -122,6 +130,7 @@ class WolfpackParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         self._obs_spaces = {a: observation_box(self._batch.wolf_obs_dim) for a in self._wolves}
         self._obs_spaces.update({a: observation_box(self._batch.target_obs_dim) for a in self._targets})
+        self._act_spaces = {a: action_box() for a in self.possible_agents}
         self._seed = seed
         self._started = False
 
@@ -137,9 +146,7 @@ class WolfpackParallelEnv(ParallelEnv):
         return self._obs_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Box:
-        if agent not in self._obs_spaces:
-            raise KeyError(agent)
-        return ACTION_SPACE
+        return self._act_spaces[agent]
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         layout = None

@@ -28,7 +28,7 @@ import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from wolfpack.batch import OUTCOMES, BatchEnv
-from wolfpack.parallel_env import ACTION_SPACE, observation_box
+from wolfpack.parallel_env import action_box, observation_box
 
 
 class _SlotView:
@@ -78,7 +78,7 @@ class WolfpackVecEnv(VecEnv):
         dim = self.batch.wolf_obs_dim if learners == "wolves" else self.batch.target_obs_dim
         self._next_seed: int | None = seed
         self._actions: np.ndarray | None = None
-        super().__init__(self.worlds * self.per_world, observation_box(dim), ACTION_SPACE)
+        super().__init__(self.worlds * self.per_world, observation_box(dim), action_box())
 
     def __reduce__(self):
         return (_rebuild, (type(self), self._init_kwargs))

@@ -1,0 +1,289 @@
+"""The learning interface: PettingZoo, Gymnasium and SB3 conformance, determinism, the expert,
+observations that follow the sensing topology, and bad input."""
+
+from __future__ import annotations
+
+import pickle
+
+import gymnasium
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pettingzoo.test import parallel_api_test, parallel_seed_test
+
+import wolfpack
+from wolfpack.parallel_env import OBS_BOUND
+
+# A 5-wolf, 1-target layout with no obstacles: wolf 0 at the origin facing +y, the target 2 m
+# ahead of it (sensed), the other wolves far away.
+LAYOUT = {
+    "wolves": [[0.0, 0.0, np.pi / 2], [6.0, 6.0, 0.0], [-6.0, 6.0, 0.0], [6.0, -6.0, 0.0], [-6.0, -6.0, 0.0]],
+    "targets": [[0.0, 2.0, np.pi]],
+    "obstacles": [],
+}
+
+
+# --- conformance ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+def test_pettingzoo_parallel_api(learners):
+    parallel_api_test(wolfpack.parallel_env(learners=learners), num_cycles=400)
+
+
+@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+def test_pettingzoo_seed_test(learners):
+    parallel_seed_test(lambda: wolfpack.parallel_env(learners=learners), num_cycles=50)
+
+
+def test_gymnasium_and_sb3_checkers_pass_on_escape_v0():
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = gymnasium.make("wolfpack/Escape-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    sb3_check_env(gymnasium.make("wolfpack/Escape-v0").unwrapped)
+
+
+def test_sb3_ppo_trains_on_make_vec_env():
+    from stable_baselines3 import PPO
+
+    venv = wolfpack.make_vec_env(num_envs=4, seed=0)
+    model = PPO("MlpPolicy", venv, n_steps=128, batch_size=256, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=3000)
+    assert model.num_timesteps >= 3000
+    obs = venv.reset()
+    action, _ = model.predict(obs, deterministic=True)
+    assert action.shape == (venv.num_envs, 2)
+
+
+# --- determinism ---------------------------------------------------------------------------
+
+
+def _rollout_parallel(seed: int, steps: int = 500):
+    env = wolfpack.parallel_env(learners="all")
+    rng = np.random.default_rng(1)
+    obs, infos = env.reset(seed=seed)
+    trace = [obs, infos]
+    for _ in range(steps):
+        if not env.agents:
+            obs, infos = env.reset()
+            trace += [obs, infos]
+            continue
+        actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
+        trace.append(env.step(actions))
+    return trace
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray):
+        return a.dtype == b.dtype and np.array_equal(a, b)
+    return a == b
+
+
+def test_same_seed_same_500_steps_different_seed_differs():
+    a, b, c = _rollout_parallel(3), _rollout_parallel(3), _rollout_parallel(4)
+    assert _equal(a, b)
+    assert not _equal(a, c)
+
+
+@pytest.mark.parametrize("learners", ["wolves", "targets"])
+def test_make_vec_env_is_bit_identical_for_any_thread_count(learners):
+    def rollout(threads):
+        venv = wolfpack.make_vec_env(num_envs=8, learners=learners, seed=5, threads=threads)
+        rng = np.random.default_rng(0)
+        out = [venv.reset()]
+        for _ in range(400):  # past the 300-step limit: autoresets included
+            obs, rew, done, infos = venv.step(rng.uniform(-1, 1, (venv.num_envs, 2)).astype(np.float32))
+            out += [obs, rew, done, [i.get("terminal_observation") for i in infos]]
+        return out
+
+    assert _equal(rollout(1), rollout(2))
+
+
+# --- the expert ----------------------------------------------------------------------------
+
+
+def test_following_the_expert_matches_wolfpack_hunt_within_3_points():
+    episodes = 200
+    hunt = wolfpack.summarize(wolfpack.run_episodes(wolfpack.load_params(), seed=0, episodes=episodes))
+    env = wolfpack.parallel_env(learners="wolves")
+    captured = 0
+    for k in range(episodes):
+        env.reset(seed=k)
+        infos = {}
+        while env.agents:
+            _, _, _, _, infos = env.step(env.unwrapped.expert_actions())
+        captured += next(iter(infos.values()))["outcome"] == "captured"
+    assert abs(captured / episodes - hunt["capture_rate"]) <= 0.03, (captured, hunt)
+
+
+def test_escape_expert_reproduces_the_scripted_target():
+    env = gymnasium.make("wolfpack/Escape-v0").unwrapped
+    outcomes = []
+    for k in range(40):
+        env.reset(seed=k)
+        done = False
+        while not done:
+            _, _, term, trunc, info = env.step(env.expert_actions())
+            done = term or trunc
+        outcomes.append(info["outcome"])
+    hunt = wolfpack.run_episodes(wolfpack.load_params(), seed=0, episodes=40)
+    assert abs(outcomes.count("captured") - sum(r["outcome"] == "captured" for r in hunt)) <= 2
+
+
+# --- observations, layouts, world_state ----------------------------------------------------
+
+
+def test_layout_reset_and_world_state():
+    env = wolfpack.parallel_env(learners="wolves")
+    obs, _ = env.reset(seed=0, options={"layout": LAYOUT})
+    s = env.unwrapped.world_state()
+    assert s["wolves"].shape == (5, 5) and s["targets"].shape == (1, 5)
+    np.testing.assert_allclose(s["wolves"][0, :3], [0.0, 0.0, np.pi / 2])
+    assert s["interaction"].shape == (6, 6) and s["interaction"].dtype == np.uint8
+    assert s["obstacles"] == [] and s["step"] == 0 and s["energy"].shape == (6,)
+    # Wolf 0 senses the target 2 m straight ahead: flag 1, (dx, dy)/3 = (2/3, 0).
+    np.testing.assert_allclose(obs["wolf_0"][9:12], [1.0, 2 / 3, 0.0], atol=1e-6)
+    # Wolf 1 is 6+ m away: the target block is all zero — the sensing topology matters.
+    assert not obs["wolf_1"][9:14].any()
+
+
+def test_layout_with_other_agent_counts_is_rejected():
+    env = wolfpack.parallel_env()
+    bad = dict(LAYOUT, wolves=LAYOUT["wolves"][:3])
+    with pytest.raises(ValueError, match="3 wolves"):
+        env.reset(options={"layout": bad})
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), scale=st.floats(0.1, 5.0))
+def test_observations_stay_in_their_space_and_rewards_are_finite(seed, scale):
+    env = wolfpack.parallel_env(learners="all")
+    obs, _ = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        if not env.agents:
+            break
+        acts = {a: (rng.normal(size=2) * scale).astype(np.float32) for a in env.agents}
+        obs, rew, *_ = env.step(acts)
+        for a, o in obs.items():
+            assert o.dtype == np.float32 and env.observation_space(a).contains(o), (a, o)
+            assert np.abs(o).max() <= OBS_BOUND
+        assert all(np.isfinite(r) for r in rew.values())
+
+
+# --- SB3 VecEnv semantics ------------------------------------------------------------------
+
+
+def test_vec_env_autoreset_terminal_observation_and_truncation():
+    venv = wolfpack.make_vec_env(num_envs=3, seed=0, **{"world.max_steps": 4})
+    assert venv.num_envs == 15
+    venv.reset()
+    zeros = np.zeros((15, 2), np.float32)
+    for _ in range(3):
+        _, _, dones, infos = venv.step(zeros)
+        assert not dones.any()
+    obs, _, dones, infos = venv.step(zeros)
+    assert dones.all()
+    for k, info in enumerate(infos):
+        assert info["TimeLimit.truncated"] is True and info["outcome"] == "timeout"
+        assert info["terminal_observation"][8] == 1.0  # clock 4/4 in the final observation
+        assert obs[k][8] == 0.0  # the new episode's first observation
+    assert venv.get_attr("world_index", [0, 5, 14]) == [0, 1, 2]
+    assert venv.get_attr("agent", [6]) == ["wolf_1"]
+    venv.set_attr("render_mode", "x", [0])
+    assert venv.get_attr("render_mode", [0, 1]) == ["x", None]
+    assert venv.env_is_wrapped(gymnasium.Wrapper) == [False] * 15
+    assert venv.env_method("world_state", indices=[0])[0]["wolves"].shape == (5, 5)
+    assert venv.env_method("expert_action", indices=[3])[0].shape == (2,)
+    assert venv.seed(7)[:6] == [7] * 5 + [8]
+
+
+def test_envs_pickle_by_constructor_arguments():
+    for env in (
+        wolfpack.parallel_env(learners="targets", **{"world.wolves": 4}),
+        gymnasium.make("wolfpack/Escape-v0").unwrapped,
+        wolfpack.make_vec_env(num_envs=2, learners="targets"),
+        wolfpack.BatchEnv(num_envs=2, seed=3),
+    ):
+        clone = pickle.loads(pickle.dumps(env))
+        assert type(clone) is type(env)
+        assert clone.params == env.params if hasattr(env, "params") else True
+
+
+# --- bad input -----------------------------------------------------------------------------
+
+
+def test_parallel_env_bad_actions_name_the_agent():
+    env = wolfpack.parallel_env(learners="all")
+    env.reset(seed=0)
+    good = {a: np.zeros(2, np.float32) for a in env.agents}
+    with pytest.raises(ValueError, match="wolf_3"):
+        env.step({a: v for a, v in good.items() if a != "wolf_3"})
+    with pytest.raises(ValueError, match="wolf_9"):
+        env.step({**good, "wolf_9": np.zeros(2, np.float32)})
+    with pytest.raises(ValueError, match="target_0.*shape"):
+        env.step({**good, "target_0": np.zeros(3, np.float32)})
+    with pytest.raises(ValueError, match="wolf_1.*dtype"):
+        env.step({**good, "wolf_1": np.zeros(2, np.int64)})
+    with pytest.raises(ValueError, match="wolf_2.*not finite"):
+        env.step({**good, "wolf_2": np.array([np.nan, 0], np.float32)})
+    with pytest.raises(ValueError, match="target_0.*not finite"):
+        env.step({**good, "target_0": np.array([0, np.inf])})
+    # Nothing moved: the world is still at step 0.
+    assert env.unwrapped.world_state()["step"] == 0
+    env.step(good)
+    assert env.unwrapped.world_state()["step"] == 1
+
+
+def test_stepping_a_finished_episode_is_an_error():
+    env = wolfpack.parallel_env(**{"world.max_steps": 2})
+    env.reset(seed=0)
+    for _ in range(2):
+        env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    assert env.agents == []
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step({})
+
+
+def test_invalid_learners_and_arguments():
+    with pytest.raises(ValueError, match="learners"):
+        wolfpack.parallel_env(learners="sheep")
+    with pytest.raises(ValueError, match="learners"):
+        wolfpack.make_vec_env(num_envs=2, learners="all")
+    with pytest.raises(ValueError, match="num_envs"):
+        wolfpack.BatchEnv(num_envs=0)
+    with pytest.raises(ValueError, match="world.wolvs"):
+        wolfpack.parallel_env(**{"world.wolvs": 3})
+    with pytest.raises(ValueError, match="render_mode"):
+        wolfpack.parallel_env(render_mode="ascii")
+    with pytest.raises(ValueError, match="one learning target"):
+        gymnasium.make("wolfpack/Escape-v0", world__targets=2)
+
+
+def test_vec_env_and_batch_bad_actions():
+    venv = wolfpack.make_vec_env(num_envs=2)
+    venv.reset()
+    with pytest.raises(ValueError, match="shape"):
+        venv.step(np.zeros((9, 2), np.float32))
+    bad = np.zeros((10, 2), np.float32)
+    bad[7, 1] = np.nan
+    with pytest.raises(ValueError, match="slot 7.*wolf_2 in world 1"):
+        venv.step(bad)
+    batch = wolfpack.BatchEnv(num_envs=2)
+    with pytest.raises(ValueError, match="wolf actions.*shape"):
+        batch.step(np.zeros((2, 4, 2), np.float32))
+    with pytest.raises(ValueError, match="floating"):
+        batch.step(np.zeros((2, 5, 2), np.int32))
+    a = np.zeros((2, 5, 2), np.float32)
+    a[1, 4, 0] = np.inf
+    with pytest.raises(ValueError, match="wolf_4 in world 1"):
+        batch.step(a)
+    with pytest.raises(ValueError, match="required"):
+        batch.step()
