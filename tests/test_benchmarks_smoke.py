@@ -54,3 +54,19 @@ def test_mpe2_numbers_are_positive(report: dict) -> None:
     assert r["steps"] == 50 and r["env_steps_per_second"] > 0
     assert r["physics_only_env_steps_per_second"] > 0
     assert report["ratios"]["wolfpack(1 thread) / mpe2"] > 0
+
+
+LEARNING = SCRIPT.with_name("learning.py")
+
+
+@pytest.mark.skipif(not HAVE_MPE2, reason="mpe2 is not installed")
+def test_learning_benchmark_runs_and_compares_with_mpe2() -> None:
+    cmd = [sys.executable, str(LEARNING), "--quick", "--json", "--num-envs", "4", "--skip", "vmas"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    r = json.loads(done.stdout)
+    for key in ("vec_env_1_thread", "vec_env_all_cores"):
+        assert r[key]["num_envs"] == 4 and r[key]["slots"] == 20
+        assert r[key]["env_steps_per_second"] > 0 and 0 < r[key]["native_share_of_step"]
+    assert r["parallel_env"]["env_steps_per_second"] > 0
+    assert r["ratios"]["parallel_env / mpe2"] > 0

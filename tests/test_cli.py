@@ -155,7 +155,7 @@ def test_help_explains_every_option_the_scenario_and_the_outputs(cli):
     top = cli("--help")
     assert top.returncode == 0 and "hunt" in top.stdout and "bench" in top.stdout
     bench = cli("bench", "--help")
-    assert bench.returncode == 0 and "later issue" in bench.stdout and "--threads" in bench.stdout
+    assert bench.returncode == 0 and "BatchEnv" in bench.stdout and "--num-envs" in bench.stdout and "--threads" in bench.stdout
 
 
 # --- a good run ---------------------------------------------------------------------------
@@ -320,11 +320,14 @@ def test_a_layout_brings_its_own_pack_size_and_capture_count(cli, tmp_path):
 
 
 def test_bench_reports_throughput_for_one_thread_and_all_cores(cli):
-    proc = cli("bench", "--episodes", "2", "--json")
+    proc = cli("bench", "--episodes", "2", "--num-envs", "3", "--batch-steps", "4", "--json")
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
     assert report["runs"][0]["threads"] == 1
     for row in report["runs"]:
         assert row["env_steps_per_second"] > 0 and row["episodes_per_second"] > 0 and row["episodes"] == 2
-    table = cli("bench", "--episodes", "1", "--threads", "2")
+    assert report["batch"][0]["threads"] == 1
+    for row in report["batch"]:
+        assert row["env_steps"] == 12 and row["env_steps_per_second"] > 0
+    table = cli("bench", "--episodes", "1", "--batch-steps", "2", "--threads", "2")
     assert table.returncode == 0 and "env-steps/s" in table.stdout
