@@ -472,6 +472,10 @@ fn step_slot(s: &mut Slot, o: SlotOut, wa: &[f32], ta: &[f32], learners: Learner
 
 fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
     let w = &s.world;
+    if obs_w.is_empty() && obs_t.is_empty() {
+        return;
+    }
+    s.observer.prepare(w);
     if !obs_w.is_empty() {
         let d = obs_w.len() / w.n_wolves();
         for (i, chunk) in obs_w.chunks_mut(d).enumerate() {
