@@ -335,15 +335,35 @@ def test_rewards_capture_with_two_targets():
     np.testing.assert_allclose(np.array(rewards), [[-rt["capture_penalty"], rt["survival"]], [0.0, rt["survival"]], [0.0, rt["survival"]]], atol=ATOL)
 
 
-def test_rewards_terminal_capture_and_collision():
-    """Φ = 0 at a terminal capture (one target) and at a wolf's collision with an obstacle."""
-    env = wolfpack.parallel_env(learners="all", **{"world.feasibility_filter": False})
-    stats = run(env, 0, 1, 0.0, new_stats(), layout=ring_layout(second_target=False), actions=lambda t, a: STAY)
-    assert stats["captures"] == 1, stats
-    # Wolf 4 drives at full speed into a circle 1 m ahead; everyone else stays.
-    lay = ring_layout(second_target=False)
-    lay["wolves"][:4] = [[3.0, 0.0, 0.0], [3.0, 3.0, 0.0], [3.0, -3.0, 0.0], [-3.0, -3.0, 0.0]]
-    lay["wolves"][4] = [4.4, -6.0, 0.0]
-    full = np.array([1.0, 0.0], np.float32)
-    stats = run(env, 0, 12, 0.0, new_stats(), layout=lay, actions=lambda t, a: full if a == "wolf_4" else STAY)
-    assert stats["wolf_collisions"] == 1, stats
+def test_rewards_terminal_capture():
+    """Φ = 0 at a terminal capture (one target): the wolves' shaping is +|d − r_h| of the last state."""
+    env = wolfpack.parallel_env(learners="all")
+    stats = run(env, 0, 3, 0.0, new_stats(), layout=ring_layout(second_target=False), actions=lambda t, a: STAY)
+    assert stats["captures"] == 1 and stats["steps"] == 1, stats
+
+
+FAR_WOLVES = [[-6.0, 6.0, 0.0], [-3.0, 6.0, 0.0], [0.0, 6.0, 0.0], [3.0, 6.0, 0.0], [6.0, 6.0, 0.0]]
+FULL = np.array([1.0, 0.0], np.float32)   # v = v_max, ω = 0
+NO_FILTER = {"world.feasibility_filter": False}
+
+
+def test_wolf_collision_is_terminal_with_zero_potential():
+    """Without the feasibility filter wolf 4 drives into a circle: −collision_penalty, Φ(s') = 0."""
+    lay = {"wolves": FAR_WOLVES[:4] + [[3.0, -6.0, 0.0]], "targets": [[-6.0, 2.0, 0.0]],
+           "obstacles": [{"kind": "circle", "center": [6.0, -6.0], "radius": 0.8, "moving": False}]}
+    env = wolfpack.parallel_env(learners="all", **NO_FILTER)
+    stats = run(env, 0, 40, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "wolf_4" else STAY)
+    assert stats["wolf_collisions"] == 1 and env.unwrapped.world_state()["outcome"] == "collision", stats
+
+
+def test_target_drives_through_a_circle_and_a_non_convex_polygon():
+    """Without the feasibility filter the target drives through a circle and then through a
+    polygon with a notch facing it (its path crosses the notch before the body): the collision
+    penalty every step in contact, and lidar rays starting inside an obstacle read 0."""
+    notch = [[4.0, -7.0], [6.0, -7.0], [6.0, -5.0], [4.0, -5.0], [5.0, -6.0]]   # at y = −5.9 inside for x ∈ (4.9, 6)
+    lay = {"wolves": FAR_WOLVES, "targets": [[-3.0, -5.9, 0.0]],
+           "obstacles": [{"kind": "circle", "center": [0.0, -6.0], "radius": 0.8, "moving": False},
+                         {"kind": "polygon", "center": [5.2, -6.0], "vertices": notch, "moving": False}]}
+    env = wolfpack.parallel_env(learners="all", **NO_FILTER)
+    stats = run(env, 0, 60, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "target_0" else STAY)
+    assert stats["steps"] == 60 and stats["target_collisions"] >= 15 and stats["inside"] >= 2 * 16, stats
