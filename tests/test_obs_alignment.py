@@ -357,13 +357,13 @@ def test_wolf_collision_is_terminal_with_zero_potential():
 
 
 def test_target_drives_through_a_circle_and_a_non_convex_polygon():
-    """Without the feasibility filter the target drives through a circle and then through a
-    polygon with a notch facing it (its path crosses the notch before the body): the collision
+    """Without the feasibility filter the target drives straight through a circle and then
+    through a non-convex polygon (which spins in place: static polygons rotate): the collision
     penalty every step in contact, and lidar rays starting inside an obstacle read 0."""
-    notch = [[4.0, -7.0], [6.0, -7.0], [6.0, -5.0], [4.0, -5.0], [5.0, -6.0]]   # at y = −5.9 inside for x ∈ (4.9, 6)
+    notch = [[4.0, -7.0], [6.0, -7.0], [6.0, -5.0], [4.0, -5.0], [5.0, -6.0]]
     lay = {"wolves": FAR_WOLVES, "targets": [[-3.0, -5.9, 0.0]],
            "obstacles": [{"kind": "circle", "center": [0.0, -6.0], "radius": 0.8, "moving": False},
                          {"kind": "polygon", "center": [5.2, -6.0], "vertices": notch, "moving": False}]}
     env = wolfpack.parallel_env(learners="all", **NO_FILTER)
     stats = run(env, 0, 60, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "target_0" else STAY)
-    assert stats["steps"] == 60 and stats["target_collisions"] >= 15 and stats["inside"] >= 2 * 16, stats
+    assert stats["steps"] == 60 and stats["target_collisions"] >= 15 and stats["inside"] >= 15 * 16, stats   # ~11 steps in the circle, ~7 in the polygon
