@@ -52,7 +52,8 @@ Rewards (``rewards.*`` in params, per agent and step)
     the nearest uncaptured target and r_h = 0.65 the hunting radius, Φ = 0 at a capture or
     collision (potential-based: the optimal policies are unchanged).
     Targets: ``+survival`` (0.1) per step uncaptured; ``−capture_penalty`` (10) when captured;
-    ``−collision_penalty`` (10) when a (moving) obstacle overlaps it; 0 once captured.
+    ``−collision_penalty`` (10) at each step its body overlaps an obstacle (with the feasibility
+    filter on, only a moving obstacle can do that); 0 once captured.
 
 Termination / Truncation
     Terminated when every target is captured (success) or a wolf collides (failure);
@@ -67,7 +68,9 @@ Arguments
     ``params`` is None (the documented scenario), a YAML path or a dict; overrides are dotted
     keys (``**{"world.wolves": 8}``) or ``world__wolves=8``. ``reset(seed=None, options=None)``;
     ``options={"layout": LAYOUT}`` starts from an explicit state (API.md) with this env's agent
-    counts. ``env.unwrapped.world_state()`` and ``env.unwrapped.expert_actions()`` as API.md.
+    counts (a polygon with ``"moving": false`` still rotates in place, as SPEC §1.3's static
+    polygons do; it does not translate). ``env.unwrapped.world_state()`` and
+    ``env.unwrapped.expert_actions()`` as API.md.
 
 Version History
     v0: first release.
