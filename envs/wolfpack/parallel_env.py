@@ -134,6 +134,8 @@ class WolfpackParallelEnv(ParallelEnv):
         self._obs_spaces = {a: observation_box(self._batch.wolf_obs_dim) for a in self._wolves}
         self._obs_spaces.update({a: observation_box(self._batch.target_obs_dim) for a in self._targets})
         self._act_spaces = {a: action_box() for a in self.possible_agents}
+        # agent name -> (is a wolf, index on its side)
+        self._index = {a: (a.startswith("wolf"), int(a.rsplit("_", 1)[1])) for a in self.possible_agents}
         self._seed = seed
         self._started = False
 
@@ -189,26 +191,28 @@ class WolfpackParallelEnv(ParallelEnv):
                 raise ValueError(f"action of {agent}: must be floating point, got dtype {arr.dtype}")
             if arr.shape != (2,):
                 raise ValueError(f"action of {agent}: expected shape (2,), got {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"action of {agent} is not finite: {arr.tolist()}")
-            kind, idx = agent.rsplit("_", 1)
-            (wa if kind == "wolf" else ta)[0, int(idx)] = arr
+            is_wolf, idx = self._index[agent]
+            (wa if is_wolf else ta)[0, idx] = arr
+        # One finiteness check over everything (per agent only to name the culprit); a float64
+        # value beyond float32's range has become inf above and is caught here too.
+        for buf in (wa, ta):
+            if buf is not None and not np.isfinite(buf).all():
+                bad = next(a for a in self.agents if not np.isfinite(np.asarray(actions[a], np.float32)).all())
+                raise ValueError(f"action of {bad} is not finite: {np.asarray(actions[bad]).tolist()}")
         out = self._batch.step(wa, ta)
-        done_world = bool(out["terminated"][0] or out["truncated"][0])
+        terminated_world, truncated_world = bool(out["terminated"][0]), bool(out["truncated"][0])
         captured = out["capture_step"][0] >= 0
         obs = self._observations(out)
-        rewards = {}
+        rw = out["rewards_wolves"][0].tolist() if self._wolves else None
+        rt = out["rewards_targets"][0].tolist() if self._targets else None
+        rewards, terminations, truncations = {}, {}, {}
         for a in self.agents:
-            kind, idx = a.rsplit("_", 1)
-            rewards[a] = float(out["rewards_wolves" if kind == "wolf" else "rewards_targets"][0, int(idx)])
-        terminations = {}
-        truncations = {}
-        for a in self.agents:
-            kind, idx = a.rsplit("_", 1)
-            own_capture = kind == "target" and bool(captured[int(idx)])
-            terminations[a] = bool(out["terminated"][0]) or own_capture
-            truncations[a] = bool(out["truncated"][0]) and not terminations[a]
+            is_wolf, idx = self._index[a]
+            rewards[a] = rw[idx] if is_wolf else rt[idx]
+            terminations[a] = terminated_world or (not is_wolf and bool(captured[idx]))
+            truncations[a] = truncated_world and not terminations[a]
         infos = self._infos(out, self.agents)
+        done_world = terminated_world or truncated_world
         self.agents = [] if done_world else [a for a in self.agents if not terminations[a]]
         return obs, rewards, terminations, truncations, infos
 
@@ -226,21 +230,15 @@ class WolfpackParallelEnv(ParallelEnv):
     def _infos(self, out: dict, agents: list[str]) -> dict[str, dict]:
         n = self._batch.n_wolves
         outcome = OUTCOMES[int(out["outcome"][0])]
-        caps = out["capture_step"][0]
-        episode_capture = int(caps.max()) if outcome == "captured" else None
+        caps = out["capture_step"][0].tolist()
+        episode_capture = max(caps) if outcome == "captured" else None
+        energy, collisions, distance = out["energy"][0].tolist(), out["collisions"][0].tolist(), out["distance"][0].tolist()
         infos = {}
         for a in agents:
-            kind, idx = a.rsplit("_", 1)
-            k = int(idx) if kind == "wolf" else n + int(idx)
-            cap = episode_capture if kind == "wolf" else (int(caps[int(idx)]) if caps[int(idx)] >= 0 else None)
-            d = float(out["distance"][0, k])
-            infos[a] = {
-                "outcome": outcome,
-                "capture_step": cap,
-                "energy": float(out["energy"][0, k]),
-                "collisions": int(out["collisions"][0, k]),
-                "distance": d,
-            }
+            is_wolf, idx = self._index[a]
+            k = idx if is_wolf else n + idx
+            cap = episode_capture if is_wolf else (caps[idx] if caps[idx] >= 0 else None)
+            infos[a] = {"outcome": outcome, "capture_step": cap, "energy": energy[k], "collisions": collisions[k], "distance": distance[k]}
         return infos
 
     def world_state(self) -> dict[str, Any]:
@@ -257,8 +255,8 @@ class WolfpackParallelEnv(ParallelEnv):
         wa, ta = self._batch.expert_actions()
         acts = {}
         for a in self.agents:
-            kind, idx = a.rsplit("_", 1)
-            acts[a] = (wa if kind == "wolf" else ta)[0, int(idx)].copy()
+            is_wolf, idx = self._index[a]
+            acts[a] = (wa if is_wolf else ta)[0, idx].copy()
         return acts
 
     def state(self) -> np.ndarray:

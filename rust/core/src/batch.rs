@@ -134,6 +134,9 @@ pub struct BatchEnv {
     autoreset: bool,
     slots: Vec<Slot>,
     pool: Option<rayon::ThreadPool>,
+    /// `threads == 1`: step on the caller's thread (a one-thread pool would cost a hand-off
+    /// to its worker and back, ~12 µs, on every call).
+    inline: bool,
     track_laws: bool,
 }
 
@@ -149,12 +152,14 @@ impl BatchEnv {
         }
         let pool = match threads {
             Some(0) => return Err(Error::Invalid("threads must be >= 1".into())),
+            Some(1) => None,
             Some(t) => Some(rayon::ThreadPoolBuilder::new().num_threads(t).build().map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
             None => None,
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, track_laws: false };
-        let worlds: Vec<Result<Slot>> = env.run(|| (0..num_envs).into_par_iter().map(|i| env_slot(&env.params, seed.wrapping_add(i as u64), 0, None)).collect());
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, inline: threads == Some(1), track_laws: false };
+        let g = |i: usize| env_slot(&env.params, seed.wrapping_add(i as u64), 0, None);
+        let worlds: Vec<Result<Slot>> = if env.inline { (0..num_envs).map(g).collect() } else { env.run(|| (0..num_envs).into_par_iter().map(g).collect()) };
         env.slots = worlds.into_iter().collect::<Result<_>>()?;
         Ok(env)
     }
@@ -197,22 +202,14 @@ impl BatchEnv {
     pub fn reset(&mut self, seed: Option<u64>) -> Result<StepOutput> {
         let params = self.params.clone();
         let track = self.track_laws;
-        let fresh: Vec<Result<Slot>> = {
-            let slots = &self.slots;
-            self.run(|| {
-                slots
-                    .par_iter()
-                    .enumerate()
-                    .map(|(i, s)| {
-                        let (sd, ep) = match seed {
-                            Some(b) => (b.wrapping_add(i as u64), 0),
-                            None => (s.seed, s.episode + 1),
-                        };
-                        env_slot(&params, sd, ep, None)
-                    })
-                    .collect()
-            })
+        let g = |(i, s): (usize, &Slot)| {
+            let (sd, ep) = match seed {
+                Some(b) => (b.wrapping_add(i as u64), 0),
+                None => (s.seed, s.episode + 1),
+            };
+            env_slot(&params, sd, ep, None)
         };
+        let fresh: Vec<Result<Slot>> = if self.inline { self.slots.iter().enumerate().map(g).collect() } else { self.run(|| self.slots.par_iter().enumerate().map(g).collect()) };
         self.slots = fresh.into_iter().collect::<Result<_>>()?;
         for s in &mut self.slots {
             s.world.track_laws = track;
@@ -250,12 +247,15 @@ impl BatchEnv {
         let mut out = self.alloc();
         let e = self.slots.len();
         let outs = self.split(&mut out, e);
-        run_in(&self.pool, || {
-            self.slots.par_iter_mut().zip(outs).for_each(|(s, o)| {
-                write_obs(s, o.obs_w, o.obs_t);
-                write_infos(&s.world, o.outcome, o.steps, o.capture_step, o.energy, o.collisions, o.distance);
-            })
-        });
+        let f = |(s, o): (&mut Slot, SlotOut)| {
+            write_obs(s, o.obs_w, o.obs_t);
+            write_infos(&s.world, o.outcome, o.steps, o.capture_step, o.energy, o.collisions, o.distance);
+        };
+        if self.inline {
+            self.slots.iter_mut().zip(outs).for_each(f);
+        } else {
+            run_in(&self.pool, || self.slots.par_iter_mut().zip(outs).for_each(f));
+        }
         out
     }
 
@@ -358,18 +358,16 @@ impl BatchEnv {
         let autoreset = self.autoreset;
         let params = self.params.clone();
         let track = self.track_laws;
-        let results: Vec<Result<()>> = run_in(&self.pool, || {
-            self.slots
-                .par_iter_mut()
-                .zip(outs)
-                .enumerate()
-                .map(|(i, (s, o))| {
-                    let wa = if learners.wolves() { &wolf_actions[i * n * 2..(i + 1) * n * 2] } else { &[][..] };
-                    let ta = if learners.targets() { &target_actions[i * m * 2..(i + 1) * m * 2] } else { &[][..] };
-                    step_slot(s, o, wa, ta, learners, autoreset, &params, track)
-                })
-                .collect()
-        });
+        let f = |(i, (s, o)): (usize, (&mut Slot, SlotOut))| {
+            let wa = if learners.wolves() { &wolf_actions[i * n * 2..(i + 1) * n * 2] } else { &[][..] };
+            let ta = if learners.targets() { &target_actions[i * m * 2..(i + 1) * m * 2] } else { &[][..] };
+            step_slot(s, o, wa, ta, learners, autoreset, &params, track)
+        };
+        let results: Vec<Result<()>> = if self.inline {
+            self.slots.iter_mut().zip(outs).enumerate().map(f).collect()
+        } else {
+            run_in(&self.pool, || self.slots.par_iter_mut().zip(outs).enumerate().map(f).collect())
+        };
         results.into_iter().collect::<Result<()>>()?;
         Ok(out)
     }
@@ -388,30 +386,26 @@ impl BatchEnv {
         let (n, m) = (self.n_wolves(), self.n_targets());
         let learners = self.learners;
         let mode = self.params.env.action_mode;
-        let per: Vec<(Vec<f32>, Vec<f32>)> = self.run(|| {
-            self.slots
-                .par_iter()
-                .map(|s| {
-                    let w = &s.world;
-                    let (dw, dt) = w.expert_desired();
-                    let p = &w.params;
-                    let mut aw = Vec::new();
-                    if learners.wolves() {
-                        for (a, &(v, th)) in w.wolves.iter().zip(&dw) {
-                            aw.extend(encode(mode, a.theta, v, th, p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts));
-                        }
-                    }
-                    let mut at = Vec::new();
-                    if learners.targets() {
-                        let side = &p.agents.target;
-                        for (a, &(v, th)) in w.targets.iter().zip(&dt) {
-                            at.extend(encode(mode, a.theta, v, th, side.v_max, side.omega_max, p.world.ts));
-                        }
-                    }
-                    (aw, at)
-                })
-                .collect()
-        });
+        let f = |s: &Slot| {
+            let w = &s.world;
+            let (dw, dt) = w.expert_desired();
+            let p = &w.params;
+            let mut aw = Vec::new();
+            if learners.wolves() {
+                for (a, &(v, th)) in w.wolves.iter().zip(&dw) {
+                    aw.extend(encode(mode, a.theta, v, th, p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts));
+                }
+            }
+            let mut at = Vec::new();
+            if learners.targets() {
+                let side = &p.agents.target;
+                for (a, &(v, th)) in w.targets.iter().zip(&dt) {
+                    at.extend(encode(mode, a.theta, v, th, side.v_max, side.omega_max, p.world.ts));
+                }
+            }
+            (aw, at)
+        };
+        let per: Vec<(Vec<f32>, Vec<f32>)> = if self.inline { self.slots.iter().map(f).collect() } else { self.run(|| self.slots.par_iter().map(f).collect()) };
         let mut aw = Vec::with_capacity(self.slots.len() * n * 2);
         let mut at = Vec::with_capacity(self.slots.len() * m * 2);
         for (w, t) in per {
