@@ -103,7 +103,7 @@ class BatchEnv:
 
     def __reduce__(self):
         # Constructor-argument pickling: the copy is a fresh batch built the same way.
-        return (_rebuild, (type(self), self._init_kwargs))
+        return (rebuild, (type(self), self._init_kwargs))
 
     @property
     def learns_wolves(self) -> bool:
@@ -141,5 +141,6 @@ class BatchEnv:
         return self._core.world_state(index)
 
 
-def _rebuild(cls, kwargs):
+def rebuild(cls, kwargs):
+    """Unpickling for every wolfpack env: a fresh instance from its constructor arguments."""
     return cls(**kwargs)

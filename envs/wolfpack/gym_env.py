@@ -25,7 +25,7 @@ from typing import Any, Mapping
 import gymnasium
 import numpy as np
 
-from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
 from wolfpack.parallel_env import action_box, check_render_mode, observation_box
 
 
@@ -47,7 +47,7 @@ class EscapeEnv(gymnasium.Env):
         self._done = False
 
     def __reduce__(self):
-        return (_rebuild, (type(self), self._init_kwargs))
+        return (rebuild, (type(self), self._init_kwargs))
 
     @property
     def params(self) -> dict:
@@ -105,6 +105,3 @@ class EscapeEnv(gymnasium.Env):
     def render(self):
         return None
 
-
-def _rebuild(cls, kwargs):
-    return cls(**kwargs)

@@ -85,7 +85,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
 
 def action_box() -> spaces.Box:
     """A new action space (each agent and env gets its own, so that seeding one space's
@@ -140,7 +140,7 @@ class WolfpackParallelEnv(ParallelEnv):
         self._started = False
 
     def __reduce__(self):
-        return (_rebuild, (type(self), self._init_kwargs))
+        return (rebuild, (type(self), self._init_kwargs))
 
     @property
     def params(self) -> dict:
@@ -272,9 +272,6 @@ class WolfpackParallelEnv(ParallelEnv):
     def close(self) -> None:
         pass
 
-
-def _rebuild(cls, kwargs):
-    return cls(**kwargs)
 
 
 def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, **overrides: Any) -> WolfpackParallelEnv:

@@ -27,7 +27,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
 from wolfpack.parallel_env import action_box, observation_box
 
 
@@ -81,7 +81,7 @@ class WolfpackVecEnv(VecEnv):
         super().__init__(self.worlds * self.per_world, observation_box(dim), action_box())
 
     def __reduce__(self):
-        return (_rebuild, (type(self), self._init_kwargs))
+        return (rebuild, (type(self), self._init_kwargs))
 
     def slot_of(self, world_index: int, agent: str) -> int:
         return world_index * self.per_world + self._agents.index(agent)
@@ -183,9 +183,6 @@ class WolfpackVecEnv(VecEnv):
                         info["TimeLimit.truncated"] = truncated
         return infos
 
-
-def _rebuild(cls, kwargs):
-    return cls(**kwargs)
 
 
 def make_vec_env(
