@@ -7,7 +7,7 @@
 //! stream. Nothing in the world changes, so calling it any number of times is harmless, and a
 //! learner that executes its answer reproduces the scripted episode.
 
-use super::step::nearest_uncaptured;
+use super::step::sense_into;
 use super::World;
 use crate::policies::{self, Snapshot};
 
@@ -31,23 +31,12 @@ impl World {
         for o in &mut obstacles {
             o.advance(&mut rng_motion, &p.obstacles, p.world.ts, &p.world.border);
         }
-        // 2. Assignment and sensing as `step` computes them (see `sense`).
+        // 2. Assignment and sensing exactly as the step computes them.
         let mut wolf_target = self.wolf_target.clone();
-        if self.t % p.world.retarget_period == 0 {
-            nearest_uncaptured(&self.wolves, &self.targets, &self.target_captured, &mut wolf_target);
-        }
-        if wolf_target.iter().any(|&j| self.target_captured[j]) && !self.target_captured.iter().all(|&c| c) {
-            nearest_uncaptured(&self.wolves, &self.targets, &self.target_captured, &mut wolf_target);
-        }
-        let rw = p.agents.wolf.sense_radius;
-        let rt = p.agents.target.sense_radius;
-        let wolf_senses: Vec<bool> = (0..n).map(|i| (self.targets[wolf_target[i]].pos - self.wolves[i].pos).norm() <= rw).collect();
+        let mut wolf_senses = vec![false; n];
         let mut seen = self.target_seen_at.clone();
-        for (j, s) in seen.iter_mut().enumerate() {
-            if s.is_none() && self.wolves.iter().any(|w| (self.targets[j].pos - w.pos).norm() <= rt) {
-                *s = Some(self.t);
-            }
-        }
+        let mut interaction = vec![0u8; (n + m) * (n + m)];
+        sense_into(p, self.t, &self.wolves, &self.targets, &self.target_captured, &mut wolf_target, &mut wolf_senses, &mut seen, &mut interaction);
         let snap = Snapshot {
             params: p,
             t: self.t,

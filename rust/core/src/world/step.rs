@@ -4,7 +4,7 @@
 use parry2d_f64::transformation::convex_hull;
 
 use super::{AgentState, Outcome, World};
-use crate::config::{CaptureRule, SideParams};
+use crate::config::{CaptureRule, Params, SideParams};
 use crate::geometry::{body_triangle, triangle_contains, triangles_overlap};
 use crate::math::{unit, wrap, Point2, Vec2};
 use crate::policies::saturator::saturate;
@@ -31,10 +31,7 @@ impl World {
         for o in &mut self.obstacles {
             o.advance(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
         }
-        // 2. Sensing and the snapshot every controller reads.
-        if self.t % p.world.retarget_period == 0 {
-            self.assign_targets();
-        }
+        // 2. Assignment, sensing and the snapshot every controller reads.
         self.sense();
         self.control(wolf_cmds, target_cmds);
         // 3. Moves through the feasibility filter: wolves in index order, then targets.
@@ -51,36 +48,10 @@ impl World {
         nearest_uncaptured(&self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target);
     }
 
-    /// Sensing flags, first sightings and the sensing entries of the interaction matrix.
+    /// Target assignment, sensing flags, first sightings and the sensing entries of the
+    /// interaction matrix, for the step about to be taken.
     fn sense(&mut self) {
-        let (n, m) = (self.n_wolves(), self.n_targets());
-        let k = n + m;
-        let rw = self.params.agents.wolf.sense_radius;
-        let rt = self.params.agents.target.sense_radius;
-        self.interaction.fill(0);
-        // A wolf's own target may have been captured since the last re-assignment.
-        if self.wolf_target.iter().any(|&j| self.target_captured[j]) && !self.target_captured.iter().all(|&c| c) {
-            self.assign_targets();
-        }
-        for i in 0..n {
-            let wp = self.wolves[i].pos;
-            for j in 0..m {
-                let d = (self.targets[j].pos - wp).norm();
-                if d <= rw {
-                    self.interaction[i * k + n + j] = 1;
-                }
-                if d <= rt {
-                    self.interaction[(n + j) * k + i] = 1;
-                }
-            }
-            self.wolf_senses[i] = self.interaction[i * k + n + self.wolf_target[i]] == 1;
-        }
-        for j in 0..m {
-            let row = (n + j) * k;
-            if self.target_seen_at[j].is_none() && self.interaction[row..row + n].iter().any(|&x| x == 1) {
-                self.target_seen_at[j] = Some(self.t);
-            }
-        }
+        sense_into(&self.params, self.t, &self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target, &mut self.wolf_senses, &mut self.target_seen_at, &mut self.interaction);
     }
 
     /// Step 2: every controller reads the same snapshot; commands land in the scratch buffers.
@@ -285,6 +256,56 @@ fn encircled(wolves: &[Vec2], target: Vec2) -> bool {
 /// Applies a side's limits: v ∈ [0, v_max] (no reverse), |ω| ≤ ω_max.
 fn clamp(c: Command, s: &SideParams) -> Command {
     Command { v: c.v.clamp(0.0, s.v_max), omega: c.omega.clamp(-s.omega_max, s.omega_max) }
+}
+
+/// Step 2's bookkeeping before any controller runs (SPEC §1.4), shared by the step and by
+/// `World::expert_desired` so that the expert sees exactly what the step will: every
+/// `retarget_period` steps (and whenever a wolf's own target has been captured) each wolf
+/// re-picks its nearest uncaptured target; then the sensing flags, the first sightings at step
+/// `t`, and the sensing entries of the (zeroed) interaction matrix.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn sense_into(
+    p: &Params,
+    t: u32,
+    wolves: &[AgentState],
+    targets: &[AgentState],
+    captured: &[bool],
+    wolf_target: &mut [usize],
+    wolf_senses: &mut [bool],
+    seen: &mut [Option<u32>],
+    interaction: &mut [u8],
+) {
+    let (n, m) = (wolves.len(), targets.len());
+    let k = n + m;
+    let rw = p.agents.wolf.sense_radius;
+    let rt = p.agents.target.sense_radius;
+    if t % p.world.retarget_period == 0 {
+        nearest_uncaptured(wolves, targets, captured, wolf_target);
+    }
+    // A wolf's own target may have been captured since the last re-assignment.
+    if wolf_target.iter().any(|&j| captured[j]) && !captured.iter().all(|&c| c) {
+        nearest_uncaptured(wolves, targets, captured, wolf_target);
+    }
+    interaction.fill(0);
+    for i in 0..n {
+        let wp = wolves[i].pos;
+        for j in 0..m {
+            let d = (targets[j].pos - wp).norm();
+            if d <= rw {
+                interaction[i * k + n + j] = 1;
+            }
+            if d <= rt {
+                interaction[(n + j) * k + i] = 1;
+            }
+        }
+        wolf_senses[i] = interaction[i * k + n + wolf_target[i]] == 1;
+    }
+    for j in 0..m {
+        let row = (n + j) * k;
+        if seen[j].is_none() && interaction[row..row + n].iter().any(|&x| x == 1) {
+            seen[j] = Some(t);
+        }
+    }
 }
 
 /// Each wolf's nearest uncaptured target (ties: lowest index); a wolf keeps its entry when
