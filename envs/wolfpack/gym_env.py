@@ -25,7 +25,7 @@ from typing import Any, Mapping
 import gymnasium
 import numpy as np
 
-from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
+from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
 from wolfpack.parallel_env import action_box, check_render_mode, observation_box
 
 
@@ -71,13 +71,8 @@ class EscapeEnv(gymnasium.Env):
             raise RuntimeError("call reset() before step()")
         if self._done:
             raise RuntimeError("the episode is over; call reset() to start a new one")
-        a = np.asarray(action)
-        if a.dtype.kind != "f":
-            raise ValueError(f"action must be floating point, got dtype {a.dtype}")
-        if a.shape != (2,):
-            raise ValueError(f"action: expected shape (2,), got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action is not finite: {a.tolist()}")
+        # Shape and dtype here; a NaN or inf is refused by the core, naming target_0.
+        a = check_action(action, "action")
         out = self._batch.step(None, a.reshape(1, 1, 2))
         terminated, truncated = bool(out["terminated"][0]), bool(out["truncated"][0])
         self._done = terminated or truncated
@@ -85,14 +80,7 @@ class EscapeEnv(gymnasium.Env):
 
     def _info(self, out: dict) -> dict:
         n = self._batch.n_wolves
-        cap = int(out["capture_step"][0, 0])
-        return {
-            "outcome": OUTCOMES[int(out["outcome"][0])],
-            "capture_step": cap if cap >= 0 else None,
-            "energy": float(out["energy"][0, n]),
-            "collisions": int(out["collisions"][0, n]),
-            "distance": float(out["distance"][0, n]),
-        }
+        return agent_infos(out, n, n, n + 1)[0]
 
     def world_state(self) -> dict[str, Any]:
         """The world's state (see ``WolfpackParallelEnv.world_state``)."""

@@ -85,7 +85,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
+from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
 
 def action_box() -> spaces.Box:
     """A new action space (each agent and env gets its own, so that seeding one space's
@@ -186,13 +186,8 @@ class WolfpackParallelEnv(ParallelEnv):
         wa = np.zeros((1, n, 2), np.float32) if self._wolves else None
         ta = np.zeros((1, m, 2), np.float32) if self._targets else None
         for agent, a in actions.items():
-            arr = np.asarray(a)
-            if arr.dtype.kind != "f":
-                raise ValueError(f"action of {agent}: must be floating point, got dtype {arr.dtype}")
-            if arr.shape != (2,):
-                raise ValueError(f"action of {agent}: expected shape (2,), got {arr.shape}")
             is_wolf, idx = self._index[agent]
-            (wa if is_wolf else ta)[0, idx] = arr
+            (wa if is_wolf else ta)[0, idx] = check_action(a, f"action of {agent}")
         # One finiteness check over everything (per agent only to name the culprit); a float64
         # value beyond float32's range has become inf above and is caught here too.
         for buf in (wa, ta):
@@ -229,16 +224,11 @@ class WolfpackParallelEnv(ParallelEnv):
 
     def _infos(self, out: dict, agents: list[str]) -> dict[str, dict]:
         n = self._batch.n_wolves
-        outcome = OUTCOMES[int(out["outcome"][0])]
-        caps = out["capture_step"][0].tolist()
-        episode_capture = max(caps) if outcome == "captured" else None
-        energy, collisions, distance = out["energy"][0].tolist(), out["collisions"][0].tolist(), out["distance"][0].tolist()
+        every = agent_infos(out, n, 0, n + self._batch.n_targets)
         infos = {}
         for a in agents:
             is_wolf, idx = self._index[a]
-            k = idx if is_wolf else n + idx
-            cap = episode_capture if is_wolf else (caps[idx] if caps[idx] >= 0 else None)
-            infos[a] = {"outcome": outcome, "capture_step": cap, "energy": energy[k], "collisions": collisions[k], "distance": distance[k]}
+            infos[a] = every[idx if is_wolf else n + idx]
         return infos
 
     def world_state(self) -> dict[str, Any]:
