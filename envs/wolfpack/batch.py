@@ -101,9 +101,10 @@ class BatchEnv:
         threads: worker threads (None: all cores). Results never depend on it.
         **overrides: params overrides, ``world__wolves=8`` or ``**{"world.wolves": 8}``.
 
-    :meth:`reset` and :meth:`step` return a dict of fresh arrays: ``obs_wolves`` [E, N, Dw] and
-    ``rewards_wolves`` [E, N] (when wolves learn), ``obs_targets`` [E, M, Dt] and
-    ``rewards_targets`` [E, M] (when targets learn), ``terminated`` / ``truncated`` [E] bool,
+    :meth:`reset` and :meth:`step` return a dict of fresh arrays: ``obs_wolves`` [E, N, Dw]
+    (when wolves learn), ``obs_targets`` [E, M, Dt] (when targets learn), ``rewards_wolves``
+    [E, N] and ``rewards_targets`` [E, M] (both sides always, the scripted one too, so that
+    evaluations can report its return), ``terminated`` / ``truncated`` [E] bool,
     ``final_obs_*`` (autoreset; valid where the episode ended), and the infos of the episode the
     step belongs to: ``outcome`` [E] uint8 (see :data:`OUTCOMES`), ``steps`` [E],
     ``capture_step`` [E, M] (−1: not captured), ``energy``, ``collisions``, ``distance``

@@ -60,7 +60,7 @@ pub struct StepOutput {
     pub obs_wolves: Vec<f32>,
     /// [E, M, Dt] when targets learn, else empty.
     pub obs_targets: Vec<f32>,
-    /// [E, N] / [E, M] when that side learns.
+    /// [E, N] / [E, M], both sides always (the scripted side's too, for evaluation).
     pub rewards_wolves: Vec<f32>,
     pub rewards_targets: Vec<f32>,
     /// [E]: the episode ended by capture or collision / by the step limit.
@@ -264,8 +264,8 @@ impl BatchEnv {
         let (n, m) = (self.n_wolves(), self.n_targets());
         let dw = if self.learners.wolves() { n * self.wolf_obs_dim() } else { 0 };
         let dt = if self.learners.targets() { m * self.target_obs_dim() } else { 0 };
-        let rw = if self.learners.wolves() { n } else { 0 };
-        let rt = if self.learners.targets() { m } else { 0 };
+        // Rewards of both sides, always: evaluation reports the scripted side's return too.
+        let (rw, rt) = (n, m);
         StepOutput {
             obs_wolves: vec![0.0; e * dw],
             obs_targets: vec![0.0; e * dt],

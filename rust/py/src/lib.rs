@@ -254,18 +254,18 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyR
     let l = env.learners();
     if l.wolves() {
         d.set_item("obs_wolves", array(py, o.obs_wolves, &[e, n, dw])?)?;
-        d.set_item("rewards_wolves", array(py, o.rewards_wolves, &[e, n])?)?;
         if !o.final_obs_wolves.is_empty() {
             d.set_item("final_obs_wolves", array(py, o.final_obs_wolves, &[e, n, dw])?)?;
         }
     }
     if l.targets() {
         d.set_item("obs_targets", array(py, o.obs_targets, &[e, m, dt])?)?;
-        d.set_item("rewards_targets", array(py, o.rewards_targets, &[e, m])?)?;
         if !o.final_obs_targets.is_empty() {
             d.set_item("final_obs_targets", array(py, o.final_obs_targets, &[e, m, dt])?)?;
         }
     }
+    d.set_item("rewards_wolves", array(py, o.rewards_wolves, &[e, n])?)?;
+    d.set_item("rewards_targets", array(py, o.rewards_targets, &[e, m])?)?;
     d.set_item("terminated", PyArray1::from_vec(py, o.terminated))?;
     d.set_item("truncated", PyArray1::from_vec(py, o.truncated))?;
     d.set_item("outcome", PyArray1::from_vec(py, o.outcome))?;

@@ -1,0 +1,348 @@
+"""What the training scripts share: argument checks, seeds, hyperparameters, run folders,
+policy rollouts on the native batch, and the evaluation engine behind ``evaluate.py``.
+
+Seeds (disjoint by construction, so "held-out" means held out):
+
+========================  ==========================================================
+what                      world seeds
+========================  ==========================================================
+``evaluate.py --seed S``  ``S, S+1, ...`` — the same episodes as ``wolfpack hunt --seed S``
+training (``--seed s``)   ``TRAIN_SEED_BASE·(s+1) + e`` for world e (episodes go on in
+                          that world's own random streams)
+imitation (``--seed s``)  ``IMITATION_SEED_BASE·(s+1) + e``
+evaluation callback       ``HELD_OUT_SEED + k`` for episode k
+========================  ==========================================================
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+import yaml
+
+import wolfpack
+from wolfpack import _core
+from wolfpack.batch import OUTCOMES, BatchEnv, resolve_params
+from wolfpack.config import parse_override
+from wolfpack.episodes import summarize
+
+SIDES = ("wolves", "targets")
+WOLF_LAWS = ("seed000", "bvc", "formation")
+TARGET_LAWS = ("escape", "random", "still")
+TRAIN_SEED_BASE = 1_000_000
+IMITATION_SEED_BASE = 100_000_000
+HELD_OUT_SEED = 500_000
+HYPERPARAMS_PATH = Path(__file__).with_name("hyperparams.yaml")
+MODEL_FILE = "model.zip"
+CONFIG_FILE = "config.yaml"
+
+
+class UsageError(ValueError):
+    """Bad arguments: the scripts print it on one line and exit with status 2."""
+
+
+def algorithms() -> dict[str, type]:
+    from stable_baselines3 import PPO, SAC
+
+    return {"ppo": PPO, "sac": SAC}
+
+
+def check_side(side: str) -> str:
+    if side not in SIDES:
+        raise UsageError(f"--side must be 'wolves' or 'targets', got {side!r}")
+    return side
+
+
+def check_algo(algo: str) -> str:
+    if algo not in ("ppo", "sac"):
+        raise UsageError(f"--algo must be 'ppo' or 'sac', got {algo!r}")
+    return algo
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise UsageError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise UsageError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def seed_int(text: str) -> int:
+    """argparse type: an integer seed >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise UsageError(f"expected a seed (integer >= 0), got {text!r}") from None
+    if value < 0:
+        raise UsageError(f"expected a seed (integer >= 0), got {text!r}")
+    return value
+
+
+def env_params(params_path: str | None, sets: Sequence[str], side: str | None = None) -> dict:
+    """The validated params of a run: ``--params`` (default: the documented scenario) with the
+    ``--set k=v`` overrides. The learning side's law entry stays as it is (the core ignores it
+    for learners), the opponent's law is the one the model is trained and evaluated against."""
+    overrides = dict(parse_override(s) for s in sets)
+    return resolve_params(params_path, overrides)
+
+
+def hyperparams(algo: str, finetune: bool, sets: Sequence[str]) -> dict:
+    """SB3 keyword arguments for ``algo``: ``hyperparams.yaml``'s ``<algo>`` section, then
+    its ``finetune.<algo>`` section when starting from another model, then ``--hp k=v``."""
+    table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
+    hp = dict(table[algo])
+    if finetune:
+        hp.update(table.get("finetune", {}).get(algo, {}))
+    for s in sets:
+        key, value = parse_override(s)
+        node = hp
+        parts = key.split(".")
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+        node[parts[-1]] = value
+    return hp
+
+
+def sb3_kwargs(hp: dict) -> dict:
+    """``hp`` made ready for an SB3 constructor (``net_arch`` lists stay lists)."""
+    return json.loads(json.dumps(hp))
+
+
+def versions() -> dict:
+    import stable_baselines3
+    import torch
+
+    return {
+        "wolfpack": wolfpack.__version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "torch": torch.__version__,
+        "numpy": np.__version__,
+        "python": sys.version.split()[0],
+        "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
+    }
+
+
+def write_config(out: Path, config: dict) -> None:
+    (out / CONFIG_FILE).write_text(yaml.safe_dump(config, sort_keys=False))
+
+
+def prepare_out(out: str | Path) -> Path:
+    """``--out`` as a directory that exists and is writable (created if missing)."""
+    path = Path(out)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".write_test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        raise UsageError(f"--out {out}: cannot write there ({e.strerror or e})") from None
+    return path
+
+
+@dataclass
+class TrainedModel:
+    """A saved model with the run configuration it came from."""
+
+    path: Path
+    side: str
+    algo: str
+    params: dict
+    config: dict
+    model: Any
+
+    @property
+    def label(self) -> str:
+        return f"{self.algo}:{self.path.parent.name}"
+
+    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """Actions for a batch of observations [..., D] → [..., 2] (float32)."""
+        flat = obs.reshape(-1, obs.shape[-1])
+        actions, _ = self.model.predict(flat, deterministic=deterministic)
+        return np.asarray(actions, dtype=np.float32).reshape(*obs.shape[:-1], 2)
+
+
+def load_model(where: str | Path, device: str = "cpu") -> TrainedModel:
+    """A model from a run folder (``DIR/model.zip`` + ``DIR/config.yaml``) or a ``.zip`` next to
+    its run's ``config.yaml`` (checkpoints: the run folder is the zip's parent or grandparent)."""
+    path = Path(where)
+    if path.is_dir():
+        zip_path = path / MODEL_FILE
+    else:
+        zip_path = path if path.suffix == ".zip" else path.with_suffix(".zip")
+    if not zip_path.is_file():
+        raise UsageError(f"model {where}: no such model file ({zip_path})")
+    config_path = next((d / CONFIG_FILE for d in (zip_path.parent, zip_path.parent.parent) if (d / CONFIG_FILE).is_file()), None)
+    if config_path is None:
+        raise UsageError(f"model {where}: no {CONFIG_FILE} beside it or in its parent folder (which params was it trained on?)")
+    config = yaml.safe_load(config_path.read_text())
+    side, algo = config.get("side"), config.get("algo")
+    if side not in SIDES or algo not in ("ppo", "sac"):
+        raise UsageError(f"{config_path}: side/algo missing or invalid ({side!r}, {algo!r})")
+    try:
+        model = algorithms()[algo].load(zip_path, device=device)
+    except Exception as e:  # a truncated or foreign zip: say which file
+        raise UsageError(f"model {zip_path}: cannot load it as an SB3 {algo.upper()} model ({type(e).__name__}: {e})") from None
+    params = _core.validate_params(config["params"])
+    return TrainedModel(zip_path, side, algo, params, config, model)
+
+
+# --- rollouts and evaluation -----------------------------------------------------------------
+
+Policy = Callable[[np.ndarray], np.ndarray]
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """The Wilson score interval for a binomial proportion (95 % for the default z): unlike the
+    normal approximation it stays inside [0, 1] and is sound at 0 % and 100 %."""
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def rollout(
+    params: dict,
+    *,
+    episodes: int,
+    seed: int,
+    wolves: Policy | None = None,
+    targets: Policy | None = None,
+    threads: int | None = 1,
+    chunk: int = 256,
+    progress: Callable[[int], None] | None = None,
+) -> list[dict]:
+    """Runs episodes ``seed .. seed + episodes − 1`` (episode k is world ``seed + k``'s first
+    episode, the very episode ``wolfpack hunt --seed seed`` runs as its k-th) with the given
+    policies for the learning sides and the scripted laws of ``params`` for the others.
+
+    Returns one dict per episode with ``wolfpack.summarize``'s fields (``seed``, ``outcome``,
+    ``steps``, ``capture_step``, ``energy`` [N+M], ``collisions`` [N+M]) and ``return_wolves`` /
+    ``return_targets`` (undiscounted episode return per agent, averaged over the side's agents).
+    """
+    learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "all"}[(wolves is not None, targets is not None)]
+    results: list[dict] = []
+    for first in range(0, episodes, chunk):
+        count = min(chunk, episodes - first)
+        batch = BatchEnv(params, num_envs=count, learners=learners, seed=seed + first, autoreset=False, threads=threads)
+        out = batch.reset(seed + first)  # episode 0 of worlds seed+first+e (reset(None) would go on to episode 1)
+        ret_w = np.zeros((count, batch.n_wolves))
+        ret_t = np.zeros((count, batch.n_targets))
+        while True:
+            wa = wolves(out["obs_wolves"]) if wolves is not None else None
+            ta = targets(out["obs_targets"]) if targets is not None else None
+            out = batch.step(wa, ta)
+            ret_w += out["rewards_wolves"]
+            ret_t += out["rewards_targets"]
+            if (out["outcome"] != 0).all():
+                break
+        for e in range(count):
+            outcome = OUTCOMES[int(out["outcome"][e])]
+            caps = out["capture_step"][e]
+            results.append(
+                {
+                    "seed": seed + first + e,
+                    "outcome": outcome,
+                    "steps": int(out["steps"][e]),
+                    "capture_step": int(caps.max()) if outcome == "captured" else None,
+                    "energy": out["energy"][e].copy(),
+                    "collisions": out["collisions"][e].copy(),
+                    "n_wolves": batch.n_wolves,
+                    "return_wolves": float(ret_w[e].mean()),
+                    "return_targets": float(ret_t[e].mean()),
+                }
+            )
+        if progress is not None:
+            progress(count)
+    return results
+
+
+def report(results: list[dict], wolves: str, targets: str) -> dict:
+    """One evaluation row: the ``wolfpack hunt --json`` summary of these episodes plus the
+    capture rate's 95 % Wilson interval, mean capture steps, wolf/target collision rates and
+    mean returns; ``wolves``/``targets`` name the policies."""
+    s = summarize(results)
+    n = len(results)
+    captured = [r["capture_step"] for r in results if r["outcome"] == "captured"]
+    lo, hi = wilson_interval(len(captured), n)
+    n_wolves = results[0]["n_wolves"] if results else 0
+    return {
+        "wolves": wolves,
+        "targets": targets,
+        "episodes": n,
+        "first_seed": results[0]["seed"] if results else None,
+        "capture_rate": s["capture_rate"],
+        "capture_rate_ci95": [lo, hi],
+        "survival_rate": 1.0 - s["capture_rate"],
+        "median_capture_steps": s["median_capture_steps"],
+        "mean_capture_steps": float(statistics.fmean(captured)) if captured else None,
+        "collision_rate": s["collision_rate"],
+        "target_collision_rate": sum(bool(r["collisions"][n_wolves:].any()) for r in results) / n if n else 0.0,
+        "timeout_rate": s["timeout_rate"],
+        "mean_energy": s["mean_energy"],
+        "mean_return_wolves": float(statistics.fmean(r["return_wolves"] for r in results)) if n else 0.0,
+        "mean_return_targets": float(statistics.fmean(r["return_targets"] for r in results)) if n else 0.0,
+        "capture_steps": captured,
+    }
+
+
+def available_laws(base: dict) -> tuple[list[str], list[str], list[str]]:
+    """(wolf laws, target laws, skipped with reasons) that the core accepts on ``base``."""
+    wolves, targets, skipped = [], [], []
+    for side, laws, into in (("wolves", WOLF_LAWS, wolves), ("targets", TARGET_LAWS, targets)):
+        for law in laws:
+            p = json.loads(json.dumps(base))
+            p["policies"][side] = law
+            try:
+                _core.validate_params(p)
+                into.append(law)
+            except ValueError as e:
+                skipped.append(f"{side}={law}: {e}")
+    return wolves, targets, skipped
+
+
+def with_laws(params: dict, wolves: str | None = None, targets: str | None = None) -> dict:
+    p = json.loads(json.dumps(params))
+    if wolves is not None:
+        p["policies"]["wolves"] = wolves
+    if targets is not None:
+        p["policies"]["targets"] = targets
+    return _core.validate_params(p)
+
+
+def evaluate_model(m: TrainedModel, *, episodes: int, seed: int, threads: int | None = 1, deterministic: bool = True, progress=None) -> dict:
+    """``m`` against the scripted opponent it was trained with, on episodes ``seed ..``."""
+    act = lambda obs: m.act(obs, deterministic)  # noqa: E731
+    if m.side == "wolves":
+        results = rollout(m.params, episodes=episodes, seed=seed, wolves=act, threads=threads, progress=progress)
+        return report(results, m.label, m.params["policies"]["targets"])
+    results = rollout(m.params, episodes=episodes, seed=seed, targets=act, threads=threads, progress=progress)
+    return report(results, m.params["policies"]["wolves"], m.label)
+
+
+class Stopwatch:
+    """Accumulates the seconds spent inside ``with`` blocks."""
+
+    def __init__(self) -> None:
+        self.total = 0.0
+
+    def __enter__(self):
+        self._t0 = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.total += time.perf_counter() - self._t0
