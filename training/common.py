@@ -127,7 +127,7 @@ def versions() -> dict:
     return {
         "wolfpack": wolfpack.__version__,
         "stable_baselines3": stable_baselines3.__version__,
-        "torch": torch.__version__,
+        "torch": str(torch.__version__),
         "numpy": np.__version__,
         "python": sys.version.split()[0],
         "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
@@ -135,7 +135,7 @@ def versions() -> dict:
 
 
 def write_config(out: Path, config: dict) -> None:
-    (out / CONFIG_FILE).write_text(yaml.safe_dump(config, sort_keys=False))
+    (out / CONFIG_FILE).write_text(yaml.safe_dump(json.loads(json.dumps(config)), sort_keys=False))
 
 
 def prepare_out(out: str | Path) -> Path:

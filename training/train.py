@@ -1,0 +1,283 @@
+"""Train wolves or targets with Stable-Baselines3 on wolfpack's native VecEnv.
+
+    python training/train.py --side targets --algo ppo --timesteps 2000000 --seed 0 --out runs/escape
+    python training/train.py --side wolves --algo ppo --timesteps 3000000 --seed 0 \\
+        --out runs/wolves_ft --init-from runs/wolves_bc
+
+The other side follows its scripted law (params ``policies.*``; default seed000 wolves, escape
+target), and all agents of the learning side share one policy (one VecEnv slot per agent per
+world). Timesteps count agent-steps, as SB3 does: a vector step of W worlds with N learning
+wolves is W·N timesteps.
+
+Writes into --out (created if missing):
+  config.yaml          side, algo, params (resolved), hyperparameters, seeds, command, versions —
+                       written first; evaluate.py and --init-from read it
+  model.zip            the final model (SB3 ``PPO.load``/``SAC.load``)
+  best_model.zip       the model with the best held-out mean return so far
+  checkpoints/         model_<timesteps>_steps.zip every --checkpoint-freq timesteps
+  progress.csv, events.out.tfevents.*   SB3's logs (CSV and TensorBoard: tensorboard --logdir DIR)
+  evaluations.json     the held-out evaluations (capture rate with its 95 % interval, capture
+                       steps, returns, ...) every --eval-freq timesteps
+  learning_curve.png   held-out capture rate and training return against timesteps
+  train_summary.json   wall time, time inside the environment and its share, throughput, final
+                       held-out evaluation
+
+Held-out evaluation uses episodes HELD_OUT_SEED + k (500000 + k), never seen in training (training
+worlds are seeded 1000000·(seed+1) + e); evaluate.py's default seeds 0.. are disjoint from both.
+Hyperparameters: training/hyperparams.yaml, overridable with --hp key=value. Bad arguments exit
+with status 2 and one line on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import yaml  # noqa: E402
+
+from common import (  # noqa: E402
+    CONFIG_FILE,
+    HELD_OUT_SEED,
+    HYPERPARAMS_PATH,
+    MODEL_FILE,
+    SIDES,
+    TRAIN_SEED_BASE,
+    Stopwatch,
+    UsageError,
+    algorithms,
+    env_params,
+    hyperparams,
+    load_model,
+    positive_int,
+    prepare_out,
+    report,
+    rollout,
+    sb3_kwargs,
+    seed_int,
+    versions,
+    write_config,
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="train.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--side", required=True, choices=SIDES, help="which side learns; the other follows its scripted law")
+    p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm (default ppo)")
+    p.add_argument("--timesteps", required=True, type=positive_int, help="training budget in agent-steps")
+    p.add_argument("--params", default=None, help="params YAML (default: the documented scenario)")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override, e.g. policies.targets=random (repeatable)")
+    p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="hyperparameter override, e.g. learning_rate=1e-4 (repeatable)")
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the training worlds and of torch (default 0)")
+    p.add_argument("--out", required=True, help="run folder")
+    p.add_argument("--init-from", default=None, metavar="DIR", help="start from this run's model (e.g. imitate.py's output)")
+    p.add_argument("--num-envs", type=positive_int, default=None, help="worlds in the VecEnv (default: hyperparams.yaml num_envs.<side>)")
+    p.add_argument("--eval-freq", type=positive_int, default=None, help="held-out evaluation every this many timesteps (default timesteps/10)")
+    p.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per held-out evaluation (default 100)")
+    p.add_argument("--checkpoint-freq", type=positive_int, default=None, help="checkpoint every this many timesteps (default timesteps/5)")
+    p.add_argument("--threads", type=positive_int, default=1, help="native worker threads for the VecEnv (default 1)")
+    p.add_argument("--torch-threads", type=positive_int, default=1, help="torch intra-op threads (default 1: small MLPs run fastest so)")
+    p.add_argument("--time-limit", type=float, default=None, metavar="MINUTES", help="stop learning after this many minutes of wall time (the model is saved as usual)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def held_out_evaluation(model_side: str, params: dict, out: Path, args):
+    """The held-out evaluation callback."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class HeldOutEvaluation(BaseCallback):
+        """Every ``freq`` timesteps: the deterministic policy on episodes HELD_OUT_SEED + k
+        against the scripted opponent; logs ``eval/*`` and keeps ``best_model.zip``."""
+
+        def __init__(self, freq: int, episodes: int) -> None:
+            super().__init__()
+            self.freq, self.episodes = freq, episodes
+            self.last = 0
+            self.history: list[dict] = []
+            self.best = -float("inf")
+            self.seconds = 0.0
+
+        def _on_training_start(self) -> None:
+            self._evaluate()
+
+        def _on_step(self) -> bool:
+            if self.num_timesteps - self.last >= self.freq:
+                self._evaluate()
+            if deadline is not None and time.perf_counter() > deadline:
+                return False  # --time-limit: SB3 ends learn() here
+            return True
+
+        def _evaluate(self) -> None:
+            t0 = time.perf_counter()
+            self.last = self.num_timesteps
+            policy = lambda obs: self.model.predict(obs.reshape(-1, obs.shape[-1]), deterministic=True)[0].reshape(*obs.shape[:-1], 2).astype("float32")  # noqa: E731
+            kw = {model_side: policy}
+            row = report(rollout(params, episodes=self.episodes, seed=HELD_OUT_SEED, threads=args.threads, **kw), "learned" if model_side == "wolves" else params["policies"]["wolves"], "learned" if model_side == "targets" else params["policies"]["targets"])
+            row.pop("capture_steps")
+            row["timesteps"] = self.num_timesteps
+            ret = row["mean_return_wolves" if model_side == "wolves" else "mean_return_targets"]
+            for key in ("capture_rate", "median_capture_steps", "collision_rate", "target_collision_rate", "timeout_rate"):
+                if row[key] is not None:
+                    self.logger.record(f"eval/{key}", row[key])
+            self.logger.record("eval/mean_return", ret)
+            if ret > self.best:
+                self.best = ret
+                self.model.save(out / "best_model.zip")
+            self.history.append(row)
+            (out / "evaluations.json").write_text(json.dumps(self.history, indent=1) + "\n")
+            self.seconds += time.perf_counter() - t0
+
+    deadline = None if args.time_limit is None else time.perf_counter() + 60 * args.time_limit
+    return HeldOutEvaluation(args.eval_freq or max(1, args.timesteps // 10), args.eval_episodes)
+
+
+def timed(env, stopwatch: Stopwatch):
+    """``env`` with the time of every reset/step spent inside it added to ``stopwatch``."""
+    from stable_baselines3.common.vec_env import VecEnvWrapper
+
+    class TimedVecEnv(VecEnvWrapper):
+        def reset(self):
+            with stopwatch:
+                return self.venv.reset()
+
+        def step_async(self, actions):
+            with stopwatch:
+                self.venv.step_async(actions)
+
+        def step_wait(self):
+            with stopwatch:
+                return self.venv.step_wait()
+
+    return TimedVecEnv(env)
+
+
+def learning_curve(out: Path, history: list[dict], side: str) -> None:
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
+    t = [h["timesteps"] for h in history]
+    rate = [100 * (h["capture_rate"] if side == "wolves" else h["survival_rate"]) for h in history]
+    lo = [100 * (h["capture_rate_ci95"][0] if side == "wolves" else 1 - h["capture_rate_ci95"][1]) for h in history]
+    hi = [100 * (h["capture_rate_ci95"][1] if side == "wolves" else 1 - h["capture_rate_ci95"][0]) for h in history]
+    a.plot(t, rate, marker="o")
+    a.fill_between(t, lo, hi, alpha=0.2)
+    a.set_xlabel("timesteps")
+    a.set_ylabel(("capture" if side == "wolves" else "survival") + " rate, held-out (%)")
+    a.set_ylim(0, 100)
+    a.grid(alpha=0.3)
+    rows = list(csv.DictReader(open(out / "progress.csv"))) if (out / "progress.csv").exists() else []
+    xs = [float(r["time/total_timesteps"]) for r in rows if r.get("rollout/ep_rew_mean")]
+    ys = [float(r["rollout/ep_rew_mean"]) for r in rows if r.get("rollout/ep_rew_mean")]
+    b.plot(xs, ys)
+    b.set_xlabel("timesteps")
+    b.set_ylabel("training episode return (per agent)")
+    b.grid(alpha=0.3)
+    fig.suptitle(f"{out.name}: {side} learning")
+    fig.tight_layout()
+    fig.savefig(out / "learning_curve.png", dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        source = load_model(args.init_from) if args.init_from else None
+        if source is not None and (source.side != args.side or source.algo != args.algo):
+            raise UsageError(f"--init-from {args.init_from}: that model is {source.algo} for {source.side}, this run is {args.algo} for {args.side}")
+        params = env_params(args.params, args.sets)
+        hp = hyperparams(args.algo, source is not None, args.hps)
+        if source is not None:
+            # The architecture must be the source's, or its weights do not fit.
+            hp["policy_kwargs"] = source.config["hyperparams"].get("policy_kwargs", {})
+        table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
+        num_envs = args.num_envs or int(table["num_envs"][args.side])
+        out = prepare_out(args.out)
+    except (UsageError, ValueError) as e:
+        print(f"train.py: error: {e}", file=sys.stderr)
+        return 2
+
+    import torch
+    from stable_baselines3.common.callbacks import CheckpointCallback
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    import wolfpack
+
+    torch.set_num_threads(args.torch_threads)
+    set_random_seed(args.seed)
+    train_seed = TRAIN_SEED_BASE * (args.seed + 1)
+    config = {
+        "side": args.side,
+        "algo": args.algo,
+        "timesteps": args.timesteps,
+        "seed": args.seed,
+        "num_envs": num_envs,
+        "train_world_seeds": f"{train_seed} + e",
+        "held_out_seeds": f"{HELD_OUT_SEED} + k ({args.eval_episodes} episodes)",
+        "init_from": str(Path(args.init_from).resolve()) if args.init_from else None,
+        "threads": args.threads,
+        "torch_threads": args.torch_threads,
+        "command": " ".join(shlex.quote(a) for a in ["python", "training/train.py", *(sys.argv[1:] if argv is None else argv)]),
+        "versions": versions(),
+        "hyperparams": hp,
+        "params": params,
+    }
+    write_config(out, config)
+
+    env_time = Stopwatch()
+    env = VecMonitor(timed(wolfpack.make_vec_env(params, num_envs=num_envs, learners=args.side, seed=train_seed, threads=args.threads), env_time))
+    algo = algorithms()[args.algo]
+    model = algo("MlpPolicy", env, seed=args.seed, device="cpu", verbose=0, **sb3_kwargs(hp))
+    if source is not None:
+        model.policy.load_state_dict(source.model.policy.state_dict())
+    model.set_logger(configure(str(out), ["csv", "tensorboard", "log"]))
+    evaluation = held_out_evaluation(args.side, params, out, args)
+    ckpt_freq = args.checkpoint_freq or max(1, args.timesteps // 5)
+    callbacks = [evaluation, CheckpointCallback(save_freq=max(1, ckpt_freq // env.num_envs), save_path=str(out / "checkpoints"), name_prefix="model")]
+
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=args.timesteps, callback=callbacks, progress_bar=not args.no_progress)
+    wall = time.perf_counter() - t0
+    model.save(out / MODEL_FILE)
+    evaluation._evaluate()  # the final model on the held-out episodes
+    learning_curve(out, evaluation.history, args.side)
+
+    train_wall = wall - evaluation.seconds
+    summary = {
+        "timesteps": int(model.num_timesteps),
+        "stopped_by_time_limit": int(model.num_timesteps) < args.timesteps,
+        "world_steps": int(model.num_timesteps) // (env.num_envs // num_envs),
+        "wall_s": wall,
+        "held_out_eval_s": evaluation.seconds,
+        "training_s": train_wall,
+        "env_s": env_time.total,
+        "env_share_of_training": env_time.total / train_wall if train_wall > 0 else None,
+        "timesteps_per_s": model.num_timesteps / train_wall if train_wall > 0 else None,
+        "final_held_out": evaluation.history[-1],
+        "best_held_out_mean_return": evaluation.best,
+    }
+    (out / "train_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    final = evaluation.history[-1]
+    print(
+        f"{args.side} {args.algo}: {summary['timesteps']} timesteps in {wall:.0f} s "
+        f"(env {100 * (summary['env_share_of_training'] or 0):.0f} % of training time); held-out capture rate "
+        f"{100 * final['capture_rate']:.1f} % [{100 * final['capture_rate_ci95'][0]:.1f}, {100 * final['capture_rate_ci95'][1]:.1f}], "
+        f"median capture steps {final['median_capture_steps']}; model: {out / MODEL_FILE}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
