@@ -16,6 +16,7 @@ evaluation callback       ``HELD_OUT_SEED + k`` for episode k
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import platform
@@ -69,13 +70,13 @@ def check_algo(algo: str) -> str:
 
 
 def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
+    """argparse type: an integer >= 1 (argparse prints the message and exits with 2)."""
     try:
         value = int(text)
     except ValueError:
-        raise UsageError(f"expected a positive integer, got {text!r}") from None
+        value = 0
     if value < 1:
-        raise UsageError(f"expected a positive integer, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
     return value
 
 
@@ -84,9 +85,9 @@ def seed_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise UsageError(f"expected a seed (integer >= 0), got {text!r}") from None
+        value = -1
     if value < 0:
-        raise UsageError(f"expected a seed (integer >= 0), got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a seed (integer >= 0), got {text!r}")
     return value
 
 

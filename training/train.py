@@ -250,17 +250,18 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.timesteps, callback=callbacks, progress_bar=not args.no_progress)
     wall = time.perf_counter() - t0
+    eval_in_learn = evaluation.seconds  # held-out evaluations during learn(), not training
     model.save(out / MODEL_FILE)
     evaluation._evaluate()  # the final model on the held-out episodes
     learning_curve(out, evaluation.history, args.side)
 
-    train_wall = wall - evaluation.seconds
+    train_wall = wall - eval_in_learn
     summary = {
         "timesteps": int(model.num_timesteps),
         "stopped_by_time_limit": int(model.num_timesteps) < args.timesteps,
         "world_steps": int(model.num_timesteps) // (env.num_envs // num_envs),
         "wall_s": wall,
-        "held_out_eval_s": evaluation.seconds,
+        "held_out_eval_s": eval_in_learn,
         "training_s": train_wall,
         "env_s": env_time.total,
         "env_share_of_training": env_time.total / train_wall if train_wall > 0 else None,

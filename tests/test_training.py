@@ -1,0 +1,201 @@
+"""The SB3 scripts of training/: train.py end to end, imitate.py → train.py --init-from,
+evaluate.py against ``wolfpack hunt``, saved models reproducing their evaluation, clear errors."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+TRAINING = Path(__file__).resolve().parents[1] / "training"
+sys.path.insert(0, str(TRAINING))
+
+import common  # noqa: E402
+import evaluate  # noqa: E402
+import imitate  # noqa: E402
+import train  # noqa: E402
+
+from wolfpack import cli  # noqa: E402
+
+TINY_PPO = ["--hp", "n_steps=16", "--hp", "batch_size=64", "--hp", "n_epochs=1", "--num-envs", "4", "--eval-episodes", "4", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def trained_targets(tmp_path_factory):
+    out = tmp_path_factory.mktemp("targets_ppo")
+    assert train.main(["--side", "targets", "--algo", "ppo", "--timesteps", "256", "--seed", "3", "--out", str(out), "--eval-freq", "128", *TINY_PPO]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def imitated_wolves(tmp_path_factory):
+    out = tmp_path_factory.mktemp("wolves_bc")
+    args = ["--side", "wolves", "--out", str(out), "--rounds", "2", "--steps-per-round", "20", "--num-envs", "2", "--epochs", "1", "--eval-episodes", "2"]
+    assert imitate.main(args) == 0
+    return out
+
+
+def test_train_writes_model_config_logs_checkpoints_and_evaluations(trained_targets):
+    out = trained_targets
+    for name in ("model.zip", "best_model.zip", "config.yaml", "progress.csv", "evaluations.json", "learning_curve.png", "train_summary.json", "log.txt"):
+        assert (out / name).is_file(), name
+    assert list(out.glob("events.out.tfevents.*")), "TensorBoard log missing"
+    assert list((out / "checkpoints").glob("model_*_steps.zip"))
+    config = common.yaml.safe_load((out / "config.yaml").read_text())
+    assert config["side"] == "targets" and config["algo"] == "ppo" and config["seed"] == 3
+    assert config["params"]["policies"]["wolves"] == "seed000"
+    assert config["hyperparams"]["n_steps"] == 16
+    summary = json.loads((out / "train_summary.json").read_text())
+    assert summary["timesteps"] >= 256
+    assert 0.0 < summary["env_share_of_training"] < 1.0
+    history = json.loads((out / "evaluations.json").read_text())
+    # one before learning, at least one during, one after
+    assert len(history) >= 3 and history[0]["timesteps"] == 0
+    assert all(h["episodes"] == 4 and h["first_seed"] == common.HELD_OUT_SEED for h in history)
+    assert "eval/capture_rate" in (out / "progress.csv").read_text().splitlines()[0]
+
+
+def test_saved_model_reloads_and_reproduces_its_evaluation(trained_targets):
+    summary = json.loads((trained_targets / "train_summary.json").read_text())
+    final = summary["final_held_out"]
+    model = common.load_model(trained_targets)
+    again = common.evaluate_model(model, episodes=4, seed=common.HELD_OUT_SEED)
+    again.pop("capture_steps")
+    for key in ("capture_rate", "median_capture_steps", "collision_rate", "timeout_rate", "mean_energy", "mean_return_targets", "mean_return_wolves"):
+        assert again[key] == final[key], key
+    # and evaluate.py reports the same row twice (the policy is deterministic)
+    rows = [evaluate_json(["--episodes", "3", "--seed", "11", "--no-scripted", str(trained_targets)])["rows"][0] for _ in range(2)]
+    assert rows[0] == rows[1]
+    assert rows[0]["wolves"] == "seed000" and rows[0]["targets"] == f"ppo:{trained_targets.name}"
+
+
+def evaluate_json(argv, capsys=None):
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert evaluate.main([*argv, "--json"]) == 0
+    return json.loads(buf.getvalue())
+
+
+def test_evaluate_scripted_row_equals_wolfpack_hunt_exactly(capsys):
+    doc = evaluate_json(["--episodes", "40", "--seed", "7"])
+    row = next(r for r in doc["rows"] if r["wolves"] == "seed000" and r["targets"] == "escape")
+    cli.main(["hunt", "--episodes", "40", "--seed", "7", "--json"])
+    hunt = json.loads(capsys.readouterr().out)
+    for key in ("episodes", "capture_rate", "collision_rate", "timeout_rate", "median_capture_steps", "mean_energy"):
+        assert row[key] == hunt[key], key
+    pairs = {(r["wolves"], r["targets"]) for r in doc["rows"]}
+    assert pairs == {("seed000", "escape"), ("seed000", "random"), ("seed000", "still")}
+    assert any("bvc" in s for s in doc["skipped"]) or ("bvc", "escape") in pairs
+    lo, hi = row["capture_rate_ci95"]
+    assert lo <= row["capture_rate"] <= hi
+
+
+def test_evaluate_writes_table_json_and_plots(tmp_path):
+    assert evaluate.main(["--episodes", "5", "--seed", "0", "--out", str(tmp_path / "ev")]) == 0
+    for name in ("results.md", "results.json", "capture_rates.png", "capture_times.png"):
+        assert (tmp_path / "ev" / name).is_file(), name
+    table = (tmp_path / "ev" / "results.md").read_text()
+    assert table.startswith("| wolves | targets | capture | 95% CI |") and "| seed000 | escape |" in table
+
+
+def test_imitation_model_is_fine_tuned_by_train_init_from(imitated_wolves, tmp_path):
+    history = json.loads((imitated_wolves / "imitation.json").read_text())
+    assert [h["beta"] for h in history] == [1.0, 0.5]
+    assert history[1]["samples"] == 2 * history[0]["samples"] == 2 * 20 * 2 * 5
+    bc = common.load_model(imitated_wolves)
+    assert bc.side == "wolves" and bc.config["imitation_of"] == "seed000"
+    assert math.isclose(float(bc.model.policy.log_std.detach()[0]), -1.2, rel_tol=1e-6)
+    out = tmp_path / "ft"
+    assert train.main(["--side", "wolves", "--timesteps", "160", "--out", str(out), "--init-from", str(imitated_wolves), *TINY_PPO]) == 0
+    config = common.yaml.safe_load((out / "config.yaml").read_text())
+    assert config["init_from"] == str(imitated_wolves.resolve())
+    assert config["hyperparams"]["learning_rate"] == 1.0e-4  # the finetune section applied
+    # training started from the imitation weights: the evaluation before learning is the BC policy's
+    first = json.loads((out / "evaluations.json").read_text())[0]
+    bc_row = common.evaluate_model(bc, episodes=4, seed=common.HELD_OUT_SEED)
+    assert first["capture_rate"] == bc_row["capture_rate"] and first["mean_return_wolves"] == bc_row["mean_return_wolves"]
+
+
+def test_imitation_labels_are_the_expert_actions():
+    """The data imitate.py fits: expert_actions() of the learner side, which reproduce the law."""
+    b = common.BatchEnv(None, num_envs=2, learners="wolves", seed=5, autoreset=False, threads=1)
+    hunt = common.rollout(common.env_params(None, []), episodes=2, seed=5)
+    b.reset(5)
+    while True:
+        wolves, _ = b.expert_actions()
+        out = b.step(wolves, None)
+        if (out["outcome"] != 0).all():
+            break
+    assert [common.OUTCOMES[o] for o in out["outcome"]] == [r["outcome"] for r in hunt]
+
+
+def test_sac_trains_and_evaluates(tmp_path):
+    out = tmp_path / "sac"
+    hp = ["--hp", "learning_starts=32", "--hp", "batch_size=32", "--hp", "gradient_steps=1", "--hp", "buffer_size=1000"]
+    assert train.main(["--side", "targets", "--algo", "sac", "--timesteps", "128", "--out", str(out), "--num-envs", "4", "--eval-episodes", "2", "--no-progress", *hp]) == 0
+    row = evaluate_json(["--episodes", "2", "--no-scripted", str(out)])["rows"][0]
+    assert row["targets"] == f"sac:{out.name}"
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--side", "sheep", "--timesteps", "10", "--out", "X"], "invalid choice: 'sheep'"),
+        (["--side", "wolves", "--algo", "dqn", "--timesteps", "10", "--out", "X"], "invalid choice: 'dqn'"),
+        (["--side", "wolves", "--timesteps", "0", "--out", "X"], "positive integer"),
+        (["--side", "wolves", "--timesteps", "10", "--out", "X", "--seed", "-1"], "seed"),
+    ],
+)
+def test_train_rejects_bad_arguments(argv, message, capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        train.main([a.replace("X", str(tmp_path / "o")) for a in argv])
+    assert e.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_missing_or_mismatched_models_give_clear_errors(tmp_path, capsys, trained_targets):
+    missing = tmp_path / "nothing"
+    assert train.main(["--side", "wolves", "--timesteps", "10", "--out", str(tmp_path / "o"), "--init-from", str(missing)]) == 2
+    assert f"model {missing}: no such model file" in capsys.readouterr().err
+    assert evaluate.main(["--episodes", "1", str(missing / "model.zip")]) == 2
+    assert "no such model file" in capsys.readouterr().err
+    assert train.main(["--side", "wolves", "--timesteps", "10", "--out", str(tmp_path / "o"), "--init-from", str(trained_targets)]) == 2
+    assert "that model is ppo for targets, this run is ppo for wolves" in capsys.readouterr().err
+    lone = tmp_path / "lone.zip"
+    lone.write_bytes((trained_targets / "model.zip").read_bytes())
+    assert evaluate.main(["--episodes", "1", str(lone)]) == 2
+    assert "no config.yaml beside it" in capsys.readouterr().err
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "config.yaml").write_text((trained_targets / "config.yaml").read_text())
+    (broken / "model.zip").write_bytes(b"not a zip")
+    assert evaluate.main(["--episodes", "1", str(broken)]) == 2
+    assert "cannot load it as an SB3 PPO model" in capsys.readouterr().err
+    assert train.main(["--side", "wolves", "--timesteps", "10", "--out", str(tmp_path / "o"), "--set", "world.wolfs=3"]) == 2
+    assert "world.wolfs" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_wilson_interval_hand_computed():
+    lo, hi = common.wilson_interval(94, 100)
+    # p = 0.94, z = 1.96: centre (0.94 + 0.019208)/1.038416, half 1.96·sqrt(0.000564 + 0.00009604)/1.038416
+    assert lo == pytest.approx(0.87529, abs=1e-4) and hi == pytest.approx(0.97223, abs=1e-4)
+    assert common.wilson_interval(0, 20)[0] == 0.0 and common.wilson_interval(20, 20)[1] == 1.0
+    assert common.wilson_interval(10, 20) == pytest.approx((0.29929, 0.70071), abs=1e-4)
+
+
+def test_discounted_returns_restart_at_episode_ends():
+    r = np.array([[1.0], [1.0], [1.0], [1.0]])
+    ends = np.array([[False], [True], [False], [False]])
+    g = imitate.discounted_returns(r, ends, 0.5)
+    assert g[:, 0].tolist() == [1.5, 1.0, 1.5, 1.0]
