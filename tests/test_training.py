@@ -108,8 +108,10 @@ def test_evaluate_writes_table_json_and_plots(tmp_path):
 
 
 def test_imitation_model_is_fine_tuned_by_train_init_from(imitated_wolves, tmp_path):
-    history = json.loads((imitated_wolves / "imitation.json").read_text())
+    doc = json.loads((imitated_wolves / "imitation.json").read_text())
+    history = doc["rounds"]
     assert [h["beta"] for h in history] == [1.0, 0.5]
+    assert doc["best_round"] == max(range(2), key=lambda r: (history[r]["held_out"]["capture_rate"], -r))
     assert history[1]["samples"] == 2 * history[0]["samples"] == 2 * 20 * 2 * 5
     bc = common.load_model(imitated_wolves)
     assert bc.side == "wolves" and bc.config["imitation_of"] == "seed000"
@@ -119,7 +121,10 @@ def test_imitation_model_is_fine_tuned_by_train_init_from(imitated_wolves, tmp_p
     config = common.yaml.safe_load((out / "config.yaml").read_text())
     assert config["init_from"] == str(imitated_wolves.resolve())
     assert config["hyperparams"]["learning_rate"] == 1.0e-4  # the finetune section applied
-    # training started from the imitation weights: the evaluation before learning is the BC policy's
+    # the kept policy is the best round's: its held-out evaluation is reproduced from model.zip
+    bc_row = common.evaluate_model(bc, episodes=2, seed=common.HELD_OUT_SEED)
+    assert bc_row["mean_return_wolves"] == history[doc["best_round"]]["held_out"]["mean_return_wolves"]
+    # training started from the imitation weights: its evaluation before learning is the BC policy's
     first = json.loads((out / "evaluations.json").read_text())[0]
     bc_row = common.evaluate_model(bc, episodes=4, seed=common.HELD_OUT_SEED)
     assert first["capture_rate"] == bc_row["capture_rate"] and first["mean_return_wolves"] == bc_row["mean_return_wolves"]

@@ -18,8 +18,13 @@ policy's log standard deviation is set to --log-std (exploration for the fine-tu
 value head is fitted to discounted Monte-Carlo returns of the cloned policy's own episodes, so
 the first PPO updates see a sensible critic instead of a random one.
 
-Writes into --out: model.zip, config.yaml (as train.py's), imitation.json (per round: data set
-size, loss, β, held-out capture rate of the deterministic policy), imitation.png.
+The model kept is the policy of the best round on held-out episodes (500000 + k; capture rate
+for wolves, survival rate for targets), as DAgger prescribes; these seeds are disjoint from
+evaluate.py's.
+
+Writes into --out: model.zip, config.yaml (as train.py's), imitation.json (``best_round`` and
+per round: β, data set size, loss, the held-out evaluation of the deterministic policy),
+imitation.png.
 """
 
 from __future__ import annotations
@@ -161,6 +166,12 @@ def main(argv: list[str] | None = None) -> int:
         row.pop("capture_steps")
         return row
 
+    import copy
+
+    def score(row: dict) -> float:  # what "best round" means: the learner side's success
+        return row["capture_rate"] if side == "wolves" else 1.0 - row["capture_rate"]
+
+    best_state, best_score, best_round = None, -1.0, -1
     data_obs: list[np.ndarray] = []
     data_act: list[np.ndarray] = []
     history = []
@@ -196,17 +207,23 @@ def main(argv: list[str] | None = None) -> int:
         row = held_out()
         entry = {"round": r, "beta": beta, "samples": int(len(X)), "loss": float(np.mean(losses[-max(1, len(losses) // args.epochs):])), "held_out": row, "elapsed_s": time.perf_counter() - t0}
         history.append(entry)
+        if score(row) > best_score:
+            best_state, best_score, best_round = copy.deepcopy(policy.state_dict()), score(row), r
         print(f"round {r}: beta {beta:.3f}, {len(X)} samples, loss {entry['loss']:.4f}, held-out capture rate {100 * row['capture_rate']:.1f} %, median steps {row['median_capture_steps']}", flush=True)
-        (out / "imitation.json").write_text(json.dumps(history, indent=1) + "\n")
+        (out / "imitation.json").write_text(json.dumps({"best_round": best_round, "rounds": history}, indent=1) + "\n")
 
+    # DAgger returns the best policy of its rounds on held-out episodes (Ross et al., 2011);
+    # the held-out seeds are disjoint from evaluate.py's, so reports carry no selection bias.
+    policy.load_state_dict(best_state)
+    (out / "imitation.json").write_text(json.dumps({"best_round": best_round, "rounds": history}, indent=1) + "\n")
     if args.algo == "ppo":
         fit_value(policy, batch, side, act, hp.get("gamma", 0.99), params["world"]["max_steps"], args)
         with torch.no_grad():
             policy.log_std.fill_(args.log_std)
     model.save(out / MODEL_FILE)
     plot(out, history, side)
-    final = history[-1]["held_out"]
-    print(f"imitation of {params['policies'][side]} ({side}): held-out capture rate {100 * final['capture_rate']:.1f} % "
+    final = history[best_round]["held_out"]
+    print(f"best round {best_round}: imitation of {params['policies'][side]} ({side}): held-out capture rate {100 * final['capture_rate']:.1f} % "
           f"[{100 * final['capture_rate_ci95'][0]:.1f}, {100 * final['capture_rate_ci95'][1]:.1f}], median capture steps {final['median_capture_steps']}; "
           f"{time.perf_counter() - t0:.0f} s; model: {out / MODEL_FILE}")
     return 0
