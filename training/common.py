@@ -344,6 +344,47 @@ def rollout(
     return results
 
 
+def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, targets: Policy | None = None) -> dict:
+    """Episode ``seed`` (as in :func:`rollout`) step by step, as the trajectory arrays of
+    ``wolfpack hunt --out`` (see :mod:`wolfpack.logs`) that :mod:`wolfpack.plots` draws."""
+    learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "all"}[(wolves is not None, targets is not None)]
+    batch = BatchEnv(params, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1)
+    out = batch.reset(seed)
+    states = [batch.world_state(0)]
+    while True:
+        wa = wolves(out["obs_wolves"]) if wolves is not None else None
+        ta = targets(out["obs_targets"]) if targets is not None else None
+        out = batch.step(wa, ta)
+        states.append(batch.world_state(0))
+        if out["outcome"][0] != 0:
+            break
+    first = states[0]["obstacles"]
+    width = max([len(o["vertices"]) for o in first] + [1])
+    local = np.full((len(first), width, 2), np.nan)
+    for k, o in enumerate(first):
+        if len(o["vertices"]):
+            c, s_ = np.cos(o["angle"]), np.sin(o["angle"])
+            local[k, : len(o["vertices"])] = (np.asarray(o["vertices"]) - o["center"]) @ np.array([[c, -s_], [s_, c]])
+    caps = out["capture_step"][0]
+    outcome = OUTCOMES[int(out["outcome"][0])]
+    return {
+        "wolves": np.array([st["wolves"] for st in states]),
+        "targets": np.array([st["targets"] for st in states]),
+        "energy": np.array([st["energy"] for st in states]),
+        "interaction": np.array([st["interaction"] for st in states[1:]]),
+        "obstacle_poses": np.array([[[*o["center"], o["angle"]] for o in st["obstacles"]] for st in states]).reshape(len(states), len(first), 3),
+        "obstacle_kind": np.array([f"{'moving' if o['moving'] else 'static'}_{o['kind']}" for o in first]),
+        "obstacle_radius": np.array([o["radius"] for o in first]),
+        "obstacle_vertices": local,
+        "border": np.array(params["world"]["border"], dtype=float),
+        "outcome": outcome,
+        "capture_step": int(caps.max()) if outcome == "captured" else -1,
+        "seed": seed,
+        "ts": params["world"]["ts"],
+        "capture_distance": params["capture"]["distance"],
+    }
+
+
 def report(results: list[dict], wolves: str, targets: str) -> dict:
     """One evaluation row: the ``wolfpack hunt --json`` summary of these episodes plus the
     capture rate's 95 % Wilson interval, mean capture steps, wolf/target collision rates and
@@ -395,6 +436,11 @@ def with_laws(params: dict, wolves: str | None = None, targets: str | None = Non
     if targets is not None:
         p["policies"]["targets"] = targets
     return _core.validate_params(p)
+
+
+def model_policies(m: TrainedModel, deterministic: bool = True) -> dict[str, Policy]:
+    """``{"wolves": act}`` or ``{"targets": act}``: the keyword arguments of :func:`rollout`."""
+    return {m.side: lambda obs: m.act(obs, deterministic)}
 
 
 def evaluate_model(m: TrainedModel, *, episodes: int, seed: int, threads: int | None = 1, deterministic: bool = True, progress=None) -> dict:

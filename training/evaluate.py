@@ -33,8 +33,10 @@ from common import (  # noqa: E402
     env_params,
     evaluate_model,
     load_model,
+    model_policies,
     positive_int,
     prepare_out,
+    record_episode,
     report,
     rollout,
     seed_int,
@@ -112,6 +114,22 @@ def plot(rows: list[dict], out: Path) -> None:
     plt.close(fig)
 
 
+def draw_trajectories(folder: Path, base: dict, jobs, models, args) -> None:
+    """``<wolves>_vs_<targets>_seed<k>.png`` for the first --trajectories episodes of each row."""
+    from wolfpack.plots import plot_trajectory
+
+    folder.mkdir(exist_ok=True)
+    rows = [(w, t, with_laws(base, w, t), {}) for w, t in jobs]
+    for m in models:
+        w, t = (m.label, m.params["policies"]["targets"]) if m.side == "wolves" else (m.params["policies"]["wolves"], m.label)
+        rows.append((w, t, m.params, model_policies(m, not args.stochastic)))
+    for w, t, params, policies in rows:
+        for k in range(min(args.trajectories, args.episodes)):
+            seed = args.seed + k
+            name = f"{w}_vs_{t}_seed{seed}".replace(":", "-").replace("/", "-")
+            plot_trajectory(record_episode(params, seed, **policies), folder / f"{name}.png", f"{w} vs {t}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="evaluate.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("models", nargs="*", metavar="MODEL", help="run folders (with model.zip and config.yaml) or .zip files in one")
@@ -121,6 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override for the scripted rows (repeatable)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--out", default=None, help="write results.md, results.json and plots here")
+    p.add_argument("--trajectories", type=int, default=0, metavar="K", help="with --out: draw the first K episodes of every row (DIR/trajectories/)")
     p.add_argument("--no-scripted", action="store_true", help="evaluate the models only")
     p.add_argument("--stochastic", action="store_true", help="sample model actions instead of taking the mean")
     p.add_argument("--threads", type=positive_int, default=None, help="native worker threads (default all cores; results do not depend on it)")
@@ -147,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(report(results, w, t))
         for m in models:
             rows.append(evaluate_model(m, episodes=args.episodes, seed=args.seed, threads=args.threads, deterministic=not args.stochastic, progress=bar.update))
+    if out is not None and args.trajectories > 0:
+        draw_trajectories(out / "trajectories", base, jobs, models, args)
     doc = {"episodes": args.episodes, "seed": args.seed, "rows": rows, "skipped": skipped}
     table = markdown(rows)
     if out is not None:
