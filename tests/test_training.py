@@ -204,3 +204,23 @@ def test_discounted_returns_restart_at_episode_ends():
     ends = np.array([[False], [True], [False], [False]])
     g = imitate.discounted_returns(r, ends, 0.5)
     assert g[:, 0].tolist() == [1.5, 1.0, 1.5, 1.0]
+
+
+def test_recorded_episode_equals_hunt_trajectory():
+    """evaluate.py --trajectories draws what wolfpack hunt --out would record, array for array."""
+    import wolfpack
+    from wolfpack import logs
+
+    params = common.env_params(None, [])
+    mine = common.record_episode(params, 3)
+    hunt = logs.trajectory_arrays(wolfpack.run_episodes(params, 1, 3, record=True)[0], params)
+    for key in ("wolves", "targets", "energy", "interaction", "obstacle_poses", "obstacle_radius", "obstacle_kind", "border"):
+        np.testing.assert_array_equal(mine[key], hunt[key], err_msg=key)
+    width = mine["obstacle_vertices"].shape[1]
+    np.testing.assert_allclose(mine["obstacle_vertices"], hunt["obstacle_vertices"][:, :width], atol=1e-12)
+    assert (mine["outcome"], mine["capture_step"]) == (str(hunt["outcome"]), int(hunt["capture_step"]))
+
+
+def test_evaluate_draws_trajectories(tmp_path, trained_targets):
+    assert evaluate.main(["--episodes", "2", "--out", str(tmp_path), "--trajectories", "1", "--no-scripted", str(trained_targets)]) == 0
+    assert [p.name for p in (tmp_path / "trajectories").iterdir()] == [f"seed000_vs_ppo-{trained_targets.name}_seed0.png"]
