@@ -46,7 +46,9 @@ def test_train_writes_model_config_logs_checkpoints_and_evaluations(trained_targ
     for name in ("model.zip", "best_model.zip", "config.yaml", "progress.csv", "evaluations.json", "learning_curve.png", "train_summary.json", "log.txt"):
         assert (out / name).is_file(), name
     assert list(out.glob("events.out.tfevents.*")), "TensorBoard log missing"
-    assert list((out / "checkpoints").glob("model_*_steps.zip"))
+    checkpoints = sorted((out / "checkpoints").glob("model_*_steps.zip"))
+    assert checkpoints
+    assert common.load_model(checkpoints[0]).label == f"ppo:{out.name}/{checkpoints[0].stem}"  # config found in the run folder
     config = common.yaml.safe_load((out / "config.yaml").read_text())
     assert config["side"] == "targets" and config["algo"] == "ppo" and config["seed"] == 3
     assert config["params"]["policies"]["wolves"] == "seed000"

@@ -237,7 +237,12 @@ class TrainedModel:
 
     @property
     def label(self) -> str:
-        return f"{self.algo}:{self.path.parent.name}"
+        """``<kind>:<run folder>``: kind ``imitation`` for imitate.py's models, else the algorithm
+        (``ppo:wolves_ft``); checkpoints add their file name."""
+        kind = "imitation" if "imitation_of" in self.config else self.algo
+        run = self.path.parent if self.path.name in (MODEL_FILE, "best_model.zip") else self.path.parent.parent
+        name = run.name if self.path.name == MODEL_FILE else f"{run.name}/{self.path.stem}"
+        return f"{kind}:{name}"
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         """Actions for a batch of observations [..., D] → [..., 2] (float32)."""
