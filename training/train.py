@@ -19,8 +19,9 @@ Writes into --out (created if missing):
   evaluations.json     the held-out evaluations (capture rate with its 95 % interval, capture
                        steps, returns, ...) every --eval-freq timesteps
   learning_curve.png   held-out capture rate and training return against timesteps
-  train_summary.json   wall time, time inside the environment and its share, throughput, final
-                       held-out evaluation
+  train_summary.json   wall time; time inside the environment and its share of training (held-out
+                       evaluations excluded); rollout collection vs gradient updates; throughput;
+                       the final held-out evaluation
 
 Held-out evaluation uses episodes HELD_OUT_SEED + k (500000 + k), never seen in training (training
 worlds are seeded 1000000·(seed+1) + e); evaluate.py's default seeds 0.. are disjoint from both.
@@ -105,6 +106,7 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
 
         def _on_training_start(self) -> None:
             self._evaluate()
+            self.seconds_before_rollouts = self.seconds  # the others run inside rollout collection
 
         def _on_step(self) -> bool:
             if self.num_timesteps - self.last >= self.freq:
@@ -135,6 +137,28 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
 
     deadline = None if args.time_limit is None else time.perf_counter() + 60 * args.time_limit
     return HeldOutEvaluation(args.eval_freq or max(1, args.timesteps // 10), args.eval_episodes)
+
+
+def phase_timer():
+    """A callback that splits learn() into rollout collection (env + policy inference + SB3
+    bookkeeping) and the rest (gradient updates); ``.collect_s`` holds the first."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class PhaseTimer(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.collect_s = 0.0
+
+        def _on_rollout_start(self) -> None:
+            self._t0 = time.perf_counter()
+
+        def _on_rollout_end(self) -> None:
+            self.collect_s += time.perf_counter() - self._t0
+
+        def _on_step(self) -> bool:
+            return True
+
+    return PhaseTimer()
 
 
 def timed(env, stopwatch: Stopwatch):
@@ -245,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
     model.set_logger(configure(str(out), ["csv", "tensorboard", "log"]))
     evaluation = held_out_evaluation(args.side, params, out, args)
     ckpt_freq = args.checkpoint_freq or max(1, args.timesteps // 5)
-    callbacks = [evaluation, CheckpointCallback(save_freq=max(1, ckpt_freq // env.num_envs), save_path=str(out / "checkpoints"), name_prefix="model")]
+    phases = phase_timer()
+    callbacks = [phases, evaluation, CheckpointCallback(save_freq=max(1, ckpt_freq // env.num_envs), save_path=str(out / "checkpoints"), name_prefix="model")]
 
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.timesteps, callback=callbacks, progress_bar=not args.no_progress)
@@ -256,6 +281,7 @@ def main(argv: list[str] | None = None) -> int:
     learning_curve(out, evaluation.history, args.side)
 
     train_wall = wall - eval_in_learn
+    collect = phases.collect_s - (eval_in_learn - evaluation.seconds_before_rollouts)
     summary = {
         "timesteps": int(model.num_timesteps),
         "stopped_by_time_limit": int(model.num_timesteps) < args.timesteps,
@@ -265,6 +291,8 @@ def main(argv: list[str] | None = None) -> int:
         "training_s": train_wall,
         "env_s": env_time.total,
         "env_share_of_training": env_time.total / train_wall if train_wall > 0 else None,
+        "collect_s": collect,  # rollout collection: env + policy inference + SB3 bookkeeping
+        "update_s": train_wall - collect,  # gradient updates
         "timesteps_per_s": model.num_timesteps / train_wall if train_wall > 0 else None,
         "final_held_out": evaluation.history[-1],
         "best_held_out_mean_return": evaluation.best,
