@@ -99,16 +99,13 @@ def env_params(params_path: str | None, sets: Sequence[str], side: str | None = 
     return resolve_params(params_path, overrides)
 
 
-def hyperparams(algo: str, finetune: bool, sets: Sequence[str], imitation: bool = False) -> dict:
+def hyperparams(algo: str, finetune: bool, sets: Sequence[str]) -> dict:
     """SB3 keyword arguments for ``algo``: ``hyperparams.yaml``'s ``<algo>`` section, then
-    its ``finetune.<algo>`` section when starting from another model (or ``imitation.<algo>``
-    for imitate.py), then ``--hp k=v``."""
+    its ``finetune.<algo>`` section when starting from another model, then ``--hp k=v``."""
     table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
     hp = dict(table[algo])
     if finetune:
         hp.update(table.get("finetune", {}).get(algo, {}))
-    if imitation:
-        hp.update(table.get("imitation", {}).get(algo, {}))
     for s in sets:
         key, value = parse_override(s)
         node = hp
@@ -119,78 +116,19 @@ def hyperparams(algo: str, finetune: bool, sets: Sequence[str], imitation: bool 
     return hp
 
 
-ACTIVATIONS = ("tanh", "relu")
-
-
 def sb3_kwargs(hp: dict) -> dict:
     """``hp`` (plain YAML data) made ready for an SB3 constructor: ``policy_kwargs.activation_fn``
-    names (``tanh``, ``relu``) become torch modules and ``features_extractor_class: standardize``
-    becomes :class:`Standardize`."""
+    names (``tanh``, ``relu``) become torch modules."""
     import torch
 
     kw = json.loads(json.dumps(hp))
     pk = kw.get("policy_kwargs", {})
     if "activation_fn" in pk:
-        name = pk["activation_fn"]
-        if name not in ACTIVATIONS:
-            raise UsageError(f"policy_kwargs.activation_fn must be one of {ACTIVATIONS}, got {name!r}")
-        pk["activation_fn"] = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[name]
-    if "features_extractor_class" in pk:
-        name = pk["features_extractor_class"]
-        if name != "standardize":
-            raise UsageError(f"policy_kwargs.features_extractor_class must be 'standardize', got {name!r}")
-        pk["features_extractor_class"] = standardize_class()
+        activations = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}
+        if pk["activation_fn"] not in activations:
+            raise UsageError(f"policy_kwargs.activation_fn must be 'tanh' or 'relu', got {pk['activation_fn']!r}")
+        pk["activation_fn"] = activations[pk["activation_fn"]]
     return kw
-
-
-def _standardize_class():
-    import torch
-    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
-
-    class Standardize(BaseFeaturesExtractor):
-        """Observation standardisation inside the policy: ``(obs − mean) / std`` with mean and
-        std as buffers (saved with the weights; identity until :meth:`fit` sets them). Why:
-        several entries of wolfpack's observation are small by construction (other wolves'
-        offsets are divided by the arena size, so 0.5 m reads 0.025), and an MLP resolves
-        them far better once they have unit scale."""
-
-        def __init__(self, observation_space) -> None:
-            dim = int(np.prod(observation_space.shape))
-            super().__init__(observation_space, features_dim=dim)
-            self.register_buffer("mean", torch.zeros(dim))
-            self.register_buffer("std", torch.ones(dim))
-
-        def fit(self, obs: np.ndarray, floor: float = 1e-2) -> None:
-            x = torch.as_tensor(obs, dtype=torch.float32).reshape(-1, self.mean.numel())
-            self.mean.copy_(x.mean(0))
-            self.std.copy_(x.std(0).clamp_min(floor))
-
-        def forward(self, observations):
-            return (observations.flatten(1) - self.mean) / self.std
-
-    Standardize.__module__ = __name__
-    Standardize.__qualname__ = "Standardize"
-    return Standardize
-
-
-_STANDARDIZE = None
-
-
-def standardize_class():
-    """The ``Standardize`` features extractor class (built once)."""
-    global _STANDARDIZE
-    if _STANDARDIZE is None:
-        _STANDARDIZE = _standardize_class()
-    return _STANDARDIZE
-
-
-def __getattr__(name: str):
-    # Standardize needs torch and SB3; it is built on first use so that evaluate.py's scripted
-    # rows and the seed helpers work without them. Saved models refer to it as
-    # common.Standardize, which this lookup answers when they are loaded.
-    if name == "Standardize":
-        return standardize_class()
-    raise AttributeError(name)
 
 
 def versions() -> dict:

@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         params = env_params(args.params, args.sets)
-        hp = hyperparams(args.algo, False, args.hps, imitation=True)
+        hp = hyperparams(args.algo, False, args.hps)
         out = prepare_out(args.out)
         if not 0.0 <= args.beta <= 1.0 or not 0.0 <= args.decay <= 1.0:
             raise UsageError(f"--beta and --decay must lie in [0, 1], got {args.beta} and {args.decay}")
@@ -192,8 +192,6 @@ def main(argv: list[str] | None = None) -> int:
                 use_expert = rng.random(expert.shape[:-1]) < beta
                 executed = np.where(use_expert[..., None], expert, mine).astype(np.float32)
             out_state = batch.step(executed, None) if side == "wolves" else batch.step(None, executed)
-        if r == 0 and hasattr(policy.features_extractor, "fit"):
-            policy.features_extractor.fit(np.concatenate(data_obs))  # statistics of the expert's states, then fixed
         X = torch.as_tensor(np.concatenate(data_obs))
         Y = torch.as_tensor(np.concatenate(data_act))
         losses = []
