@@ -248,7 +248,9 @@ def rollout(
 
     Returns one dict per episode with ``wolfpack.summarize``'s fields (``seed``, ``outcome``,
     ``steps``, ``capture_step``, ``energy`` [N+M], ``collisions`` [N+M]) and ``return_wolves`` /
-    ``return_targets`` (undiscounted episode return per agent, averaged over the side's agents).
+    ``return_targets`` (undiscounted episode return per agent, averaged over the side's agents)
+    and ``target_wall_distance`` (m, the targets' distance to the nearest wall when the episode
+    ended, averaged over targets).
     """
     learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "all"}[(wolves is not None, targets is not None)]
     results: list[dict] = []
@@ -266,7 +268,10 @@ def rollout(
             ret_t += out["rewards_targets"]
             if (out["outcome"] != 0).all():
                 break
+        x0, y0, x1, y1 = params["world"]["border"]
         for e in range(count):
+            final = batch.world_state(e)["targets"]
+            wall = np.minimum.reduce([final[:, 0] - x0, x1 - final[:, 0], final[:, 1] - y0, y1 - final[:, 1]])
             outcome = OUTCOMES[int(out["outcome"][e])]
             caps = out["capture_step"][e]
             results.append(
@@ -280,6 +285,7 @@ def rollout(
                     "n_wolves": batch.n_wolves,
                     "return_wolves": float(ret_w[e].mean()),
                     "return_targets": float(ret_t[e].mean()),
+                    "target_wall_distance": float(wall.mean()),
                 }
             )
         if progress is not None:
@@ -353,6 +359,7 @@ def report(results: list[dict], wolves: str, targets: str) -> dict:
         "mean_energy": s["mean_energy"],
         "mean_return_wolves": float(statistics.fmean(r["return_wolves"] for r in results)) if n else 0.0,
         "mean_return_targets": float(statistics.fmean(r["return_targets"] for r in results)) if n else 0.0,
+        "median_final_target_wall_distance": float(statistics.median(r["target_wall_distance"] for r in results)) if n else None,
         "capture_steps": captured,
     }
 

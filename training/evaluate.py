@@ -8,8 +8,9 @@ was trained with. Episode k of every row is world ``seed + k``'s first episode, 
 seed000-vs-escape row is exactly ``wolfpack hunt --episodes K --seed S``. Per row: capture rate
 with its 95 % Wilson interval, median and mean capture steps (over captured episodes), wolf
 collision rate (episodes ended by a wolf collision), target collision rate (episodes in which a
-target touched an obstacle), timeout rate, mean energy (J per episode, all agents), and mean
-return per agent of each side (the env's rewards, undiscounted).
+target touched an obstacle), timeout rate, mean energy (J per episode, all agents), mean
+return per agent of each side (the env's rewards, undiscounted), and the median distance of the
+target to the nearest wall when the episode ended (pinned to a wall, a target is hard to ring).
 
 Output: a Markdown table on stdout, or with --json one JSON object ``{"episodes", "seed",
 "rows": [{"wolves": "seed000", "targets": "escape", ...}, ...], "skipped": [...]}``. With
@@ -56,6 +57,7 @@ COLUMNS = (
     ("energy (J)", "mean_energy", "{:.0f}"),
     ("return wolf", "mean_return_wolves", "{:.2f}"),
     ("return target", "mean_return_targets", "{:.2f}"),
+    ("target–wall (m)", "median_final_target_wall_distance", "{:.2f}"),
 )
 
 
@@ -108,7 +110,8 @@ def plot(rows: list[dict], out: Path) -> None:
     ax.set_ylabel("episodes captured by this step (%)")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "capture_times.png", dpi=120)
     plt.close(fig)
