@@ -226,3 +226,10 @@ def test_recorded_episode_equals_hunt_trajectory():
 def test_evaluate_draws_trajectories(tmp_path, trained_targets):
     assert evaluate.main(["--episodes", "2", "--out", str(tmp_path), "--trajectories", "1", "--no-scripted", str(trained_targets)]) == 0
     assert [p.name for p in (tmp_path / "trajectories").iterdir()] == [f"seed000_vs_ppo-{trained_targets.name}_seed0.png"]
+
+
+def test_target_wall_distance_is_the_final_pose_to_the_nearest_wall():
+    params = common.env_params(None, ["world.border=[-6,-5,7,8]"])
+    [row] = common.rollout(params, episodes=1, seed=4)
+    x, y = common.record_episode(params, 4)["targets"][-1, 0, :2]
+    assert row["target_wall_distance"] == pytest.approx(min(x + 6, 7 - x, y + 5, 8 - y), abs=1e-12)
