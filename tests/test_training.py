@@ -229,7 +229,7 @@ def test_evaluate_draws_trajectories(tmp_path, trained_targets):
 
 
 def test_target_wall_distance_is_the_final_pose_to_the_nearest_wall():
-    params = common.env_params(None, ["world.border=[-6,-5,7,8]"])
+    params = common.env_params(None, ["world.border=[-9,-8,10,11]"])
     [row] = common.rollout(params, episodes=1, seed=4)
     x, y = common.record_episode(params, 4)["targets"][-1, 0, :2]
-    assert row["target_wall_distance"] == pytest.approx(min(x + 6, 7 - x, y + 5, 8 - y), abs=1e-12)
+    assert row["target_wall_distance"] == pytest.approx(min(x + 9, 10 - x, y + 8, 11 - y), abs=1e-12)
