@@ -146,7 +146,10 @@ def expected_obs(p, ws, t_seen, row_matrix, stats):
             o += relative(me, tg, 1 / wp["sense_radius"], True) if sensed else [0.0] * 5
             stats["wolf_sensed"] += sensed
         for _, j in by_distance(me, wolves, skip=i):
-            o += relative(me, wolves[j], 1 / S, False)
+            # the partner's flag: does wolf j have any target within its sensing radius now?
+            partner_senses = any(math.hypot(tg[0] - wolves[j][0], tg[1] - wolves[j][1]) <= wp["sense_radius"] for tg in targets)
+            o += [float(partner_senses)] + relative(me, wolves[j], 1 / S, False)
+            stats["partner_senses"] += partner_senses
         out[f"wolf_{i}"] = o
     for j, me in enumerate(targets):
         o = common(me, tp["v_max"], tp["omega_max"], border, t, T) + [fatigue_cap(p, t_seen[j], t)]
@@ -199,7 +202,7 @@ def expected_rewards(p, before, after, infos_before, infos_after, agents):
 # ----------------------------------------------------------------------------------------------
 
 def new_stats():
-    keys = ("steps", "wolf_sensed", "target_masked", "cap_below_1", "wall", "circle", "polygon", "inside",
+    keys = ("steps", "wolf_sensed", "partner_senses", "target_masked", "cap_below_1", "wall", "circle", "polygon", "inside",
             "captures", "wolf_collisions", "target_collisions", "row_ones")
     return dict.fromkeys(keys, 0)
 
@@ -281,7 +284,7 @@ def test_default_scenario_fixed_seeds():
     for seed in range(6):
         run(env, seed, 40, 0.5, stats)
     assert stats["steps"] >= 200, stats
-    for key in ("wolf_sensed", "target_masked", "wall", "circle", "polygon"):
+    for key in ("wolf_sensed", "partner_senses", "target_masked", "wall", "circle", "polygon"):
         assert stats[key] > 0, (key, stats)
 
 
@@ -303,7 +306,7 @@ def test_three_wolves_two_targets_interaction_row_and_lidar_7():
     stats = new_stats()
     for seed in range(4):
         run(env, seed, 50, 0.8, stats)
-    for key in ("wolf_sensed", "target_masked", "cap_below_1", "wall", "circle", "polygon", "row_ones"):
+    for key in ("wolf_sensed", "partner_senses", "target_masked", "cap_below_1", "wall", "circle", "polygon", "row_ones"):
         assert stats[key] > 0, (key, stats)
 
 

@@ -36,7 +36,8 @@ def trained_targets(tmp_path_factory):
 @pytest.fixture(scope="module")
 def imitated_wolves(tmp_path_factory):
     out = tmp_path_factory.mktemp("wolves_bc")
-    args = ["--side", "wolves", "--out", str(out), "--rounds", "2", "--steps-per-round", "20", "--num-envs", "2", "--epochs", "1", "--eval-episodes", "2"]
+    args = ["--side", "wolves", "--out", str(out), "--rounds", "2", "--steps-per-round", "20", "--num-envs", "2", "--epochs", "1", "--eval-episodes", "2",
+            "--set", "env.action_mode=velocity", "--set", "env.lidar.rays=12"]
     assert imitate.main(args) == 0
     return out
 
@@ -123,6 +124,9 @@ def test_imitation_model_is_fine_tuned_by_train_init_from(imitated_wolves, tmp_p
     config = common.yaml.safe_load((out / "config.yaml").read_text())
     assert config["init_from"] == str(imitated_wolves.resolve())
     assert config["hyperparams"]["learning_rate"] == 1.0e-4  # the finetune section applied
+    # without --params/--set the fine-tuning runs on the source's scenario, not the default one
+    assert config["params"] == bc.config["params"]
+    assert config["params"]["env"]["action_mode"] == "velocity" and config["params"]["env"]["lidar"]["rays"] == 12
     # the kept policy is the best round's: its held-out evaluation is reproduced from model.zip
     bc_row = common.evaluate_model(bc, episodes=2, seed=common.HELD_OUT_SEED)
     assert bc_row["mean_return_wolves"] == history[doc["best_round"]]["held_out"]["mean_return_wolves"]
@@ -130,6 +134,15 @@ def test_imitation_model_is_fine_tuned_by_train_init_from(imitated_wolves, tmp_p
     first = json.loads((out / "evaluations.json").read_text())[0]
     bc_row = common.evaluate_model(bc, episodes=4, seed=common.HELD_OUT_SEED)
     assert first["capture_rate"] == bc_row["capture_rate"] and first["mean_return_wolves"] == bc_row["mean_return_wolves"]
+
+
+def test_init_from_refuses_params_that_change_the_spaces(imitated_wolves, tmp_path, capsys):
+    base = ["--side", "wolves", "--timesteps", "10", "--out", str(tmp_path / "o"), "--init-from", str(imitated_wolves)]
+    assert train.main([*base, "--set", "env.action_mode=unicycle"]) == 2
+    assert "takes 46 observations in 'velocity' action mode, these params give 46 in 'unicycle' mode" in capsys.readouterr().err
+    assert train.main([*base, "--params", str(Path(common.wolfpack.__file__).with_name("params.yaml"))]) == 2
+    assert "these params give 50 in 'unicycle' mode" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
 
 
 def test_imitation_labels_are_the_expert_actions():

@@ -71,8 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--side", required=True, choices=SIDES, help="which side learns; the other follows its scripted law")
     p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm (default ppo)")
     p.add_argument("--timesteps", required=True, type=positive_int, help="training budget in agent-steps")
-    p.add_argument("--params", default=None, help="params YAML (default: the documented scenario)")
-    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override, e.g. policies.targets=random (repeatable)")
+    p.add_argument("--params", default=None, help="params YAML (default: the documented scenario, or with --init-from the source run's params)")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override, e.g. policies.targets=random (repeatable; with --init-from, applied to the source run's params)")
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="hyperparameter override, e.g. learning_rate=1e-4 (repeatable)")
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the training worlds and of torch (default 0)")
     p.add_argument("--out", required=True, help="run folder")
@@ -213,13 +213,35 @@ def learning_curve(out: Path, history: list[dict], side: str) -> None:
     plt.close(fig)
 
 
+def check_same_spaces(source, params: dict, side: str) -> None:
+    """UsageError unless ``params`` gives the learning side the observation size and action
+    mode that ``source`` was trained with (its weights would not fit, or would mean something
+    else)."""
+    import wolfpack
+
+    batch = wolfpack.BatchEnv(params, num_envs=1, learners=side, seed=0, threads=1)
+    ours = (batch.wolf_obs_dim if side == "wolves" else batch.target_obs_dim, params["env"]["action_mode"])
+    theirs = (int(source.model.observation_space.shape[0]), source.params["env"]["action_mode"])
+    if theirs != ours:
+        raise UsageError(
+            f"--init-from {source.path.parent}: that model takes {theirs[0]} observations in "
+            f"{theirs[1]!r} action mode, these params give {ours[0]} in {ours[1]!r} mode"
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         source = load_model(args.init_from) if args.init_from else None
         if source is not None and (source.side != args.side or source.algo != args.algo):
             raise UsageError(f"--init-from {args.init_from}: that model is {source.algo} for {source.side}, this run is {args.algo} for {args.side}")
-        params = env_params(args.params, args.sets)
+        # Fine-tuning continues on the source run's scenario (action mode, counts, opponent...):
+        # a policy cloned in velocity mode means nothing in unicycle mode. --params replaces
+        # that scenario, --set changes it.
+        base = source.config["params"] if source is not None and args.params is None else args.params
+        params = env_params(base, args.sets)
+        if source is not None:
+            check_same_spaces(source, params, args.side)
         hp = hyperparams(args.algo, source is not None, args.hps)
         if source is not None:
             # The architecture must be the source's, or its weights do not fit.

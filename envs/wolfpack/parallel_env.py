@@ -32,8 +32,10 @@ Observation Space
     8                           step / max_steps
     **wolf** 9 … 9+5M−1         per target (index order): sensed, dx/r, dy/r, sin Δθ, cos Δθ —
                                 all zero unless this wolf senses it now (distance ≤ r)
-    **wolf** next 4(N−1)        other wolves, nearest first: dx/S, dy/S, sin Δθ, cos Δθ
-                                (wolves communicate globally)
+    **wolf** next 5(N−1)        other wolves, nearest first: senses, dx/S, dy/S, sin Δθ,
+                                cos Δθ (wolves communicate globally); senses = 1 when that
+                                wolf has a target within its sensing radius now (a seed000
+                                wolf that sees no target follows the nearest such partner)
     **target** 9                speed cap / v_max (the fatigue curve; 1 before any sighting)
     **target** 10 … 10+5N−1     wolves, nearest first: in range, dx/r, dy/r, sin Δθ, cos Δθ —
                                 zero for wolves beyond r (masked)
@@ -43,7 +45,7 @@ Observation Space
                                 interaction matrix (0/1)
     ==========================  ===========================================================
 
-    Defaults: D = 46 for a wolf, 51 for a target.
+    Defaults: D = 50 for a wolf, 51 for a target.
 
 Rewards (``rewards.*`` in params, per agent and step)
     Wolves: ``−time_penalty`` (0.01); ``+capture_bonus`` (10) to every wolf for each target

@@ -12,7 +12,7 @@
 //! | 4–7 | wall distances | same | (x − x_min)/W, (x_max − x)/W, (y − y_min)/H, (y_max − y)/H |
 //! | 8 | t / max_steps | same | episode clock |
 //! | wolf: 9 … +5M | per target (index order): sensed, dx/r, dy/r, sin Δθ, cos Δθ | | all zero unless the wolf senses it now (d ≤ r_w): the sensing topology |
-//! | wolf: … +4(N−1) | other wolves by distance: dx/S, dy/S, sin Δθ, cos Δθ | | global communication |
+//! | wolf: … +5(N−1) | other wolves by distance: senses, dx/S, dy/S, sin Δθ, cos Δθ | | global communication; `senses` = 1 when that wolf senses a target now (d ≤ r_w), the flag the seed000 law follows partners by |
 //! | target: 9 | | speed cap / v_max | the fatigue cap in force (1 before the first sighting or without fatigue) |
 //! | target: 10 … +5N | | wolves by distance: in range, dx/r, dy/r, sin Δθ, cos Δθ | sensed wolves first; the rest all zero |
 //! | next K | lidar | same | ray k at θ + 2πk/K: distance to the first obstacle or wall / range, 1 = nothing |
@@ -35,7 +35,7 @@ pub const COMMON: usize = 9;
 /// Observation sizes of both sides for these params.
 pub fn wolf_dim(p: &Params) -> usize {
     let (n, m) = (p.world.wolves, p.world.targets);
-    COMMON + 5 * m + 4 * (n - 1) + p.env.lidar.rays + extra(p)
+    COMMON + 5 * m + 5 * (n - 1) + p.env.lidar.rays + extra(p)
 }
 
 pub fn target_dim(p: &Params) -> usize {
@@ -87,8 +87,13 @@ impl Observer {
         let scale = 1.0 / arena_scale(p);
         self.sort_by_distance(me.pos, &w.wolves, Some(i));
         for &(_, j) in &self.by_distance {
-            write_relative(&me, mine, &w.wolves[j], self.trig[j], scale, &mut out[k..k + 4], false);
-            k += 4;
+            // Global communication includes whether the partner has a target in sight: a wolf
+            // that sees none follows the nearest partner that does (SPEC §3).
+            let partner = w.wolves[j].pos;
+            let senses = w.targets.iter().any(|t| (t.pos - partner).norm() <= r);
+            write_relative(&me, mine, &w.wolves[j], self.trig[j], scale, &mut out[k..k + 5], true);
+            out[k] = if senses { 1.0 } else { 0.0 };
+            k += 5;
         }
         k += lidar(p, &me, &w.obstacles, &mut out[k..k + p.env.lidar.rays]);
         interaction_row(w, i, &mut out[k..]);
@@ -295,12 +300,12 @@ mod tests {
     #[test]
     fn dimensions_match_the_table() {
         let p = Params::default();
-        assert_eq!(wolf_dim(&p), 9 + 5 + 16 + 16);
+        assert_eq!(wolf_dim(&p), 9 + 5 + 20 + 16);
         assert_eq!(target_dim(&p), 9 + 1 + 25 + 16);
         let mut q = p.clone();
         q.env.interaction_row = true;
         q.env.lidar.rays = 4;
-        assert_eq!(wolf_dim(&q), 9 + 5 + 16 + 4 + 6);
+        assert_eq!(wolf_dim(&q), 9 + 5 + 20 + 4 + 6);
     }
 
     #[test]
@@ -326,14 +331,18 @@ mod tests {
 
     #[test]
     fn other_wolves_are_sorted_by_distance() {
-        let w = world(vec![[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -2.0, 0.0], [-8.0, 0.0, 0.0]], vec![[9.0, 9.0, 0.0]], vec![]);
+        // The target at (4, 2) is within r_w = 3 of wolf 1 only (2 m; wolf 2 is 3.61 m away).
+        let w = world(vec![[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -2.0, 0.0], [-8.0, 0.0, 0.0]], vec![[4.0, 2.0, 0.0]], vec![]);
         let mut out = vec![0f32; wolf_dim(&w.params)];
         observer(&w).wolf(&w, 0, &mut out);
-        let xs: Vec<(f32, f32)> = (0..4).map(|k| (out[14 + 4 * k] * 20.0, out[15 + 4 * k] * 20.0)).collect();
+        assert_eq!(&out[9..14], &[0.0; 5], "the observer itself is 4.47 m from the target");
+        let xs: Vec<(f32, f32)> = (0..4).map(|k| (out[15 + 5 * k] * 20.0, out[16 + 5 * k] * 20.0)).collect();
         let want = [(1.0, 0.0), (0.0, -2.0), (4.0, 0.0), (-8.0, 0.0)];
         for (g, w) in xs.iter().zip(want) {
             assert!((g.0 - w.0).abs() < 1e-5 && (g.1 - w.1).abs() < 1e-5, "{xs:?}");
         }
+        let senses: Vec<f32> = (0..4).map(|k| out[14 + 5 * k]).collect();
+        assert_eq!(senses, [0.0, 0.0, 1.0, 0.0], "only wolf 1 (third nearest) senses the target");
     }
 
     #[test]
