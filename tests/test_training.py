@@ -201,6 +201,15 @@ def test_missing_or_mismatched_models_give_clear_errors(tmp_path, capsys, traine
     (broken / "model.zip").write_bytes(b"not a zip")
     assert evaluate.main(["--episodes", "1", str(broken)]) == 2
     assert "cannot load it as an SB3 PPO model" in capsys.readouterr().err
+    # a model whose observation layout is not this version's (here: its config says 8 rays)
+    stale = tmp_path / "stale"
+    stale.mkdir()
+    config = common.yaml.safe_load((trained_targets / "config.yaml").read_text())
+    config["params"]["env"]["lidar"]["rays"] = 8
+    (stale / "config.yaml").write_text(common.yaml.safe_dump(config))
+    (stale / "model.zip").write_bytes((trained_targets / "model.zip").read_bytes())
+    assert evaluate.main(["--episodes", "1", str(stale)]) == 2
+    assert "it takes 51 observations, but this version of wolfpack gives the targets 43" in capsys.readouterr().err
     assert train.main(["--side", "wolves", "--timesteps", "10", "--out", str(tmp_path / "o"), "--set", "world.wolfs=3"]) == 2
     assert "world.wolfs" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

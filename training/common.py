@@ -211,7 +211,21 @@ def load_model(where: str | Path, device: str = "cpu") -> TrainedModel:
     except Exception as e:  # a truncated or foreign zip: say which file
         raise UsageError(f"model {zip_path}: cannot load it as an SB3 {algo.upper()} model ({type(e).__name__}: {e})") from None
     params = _core.validate_params(config["params"])
+    expected = observation_size(params, side)
+    got = int(model.observation_space.shape[0])
+    if got != expected:
+        raise UsageError(
+            f"model {zip_path}: it takes {got} observations, but this version of wolfpack gives the {side} "
+            f"{expected} on its params (trained on an older observation layout? retrain it)"
+        )
     return TrainedModel(zip_path, side, algo, params, config, model)
+
+
+def observation_size(params: dict, side: str) -> int:
+    """The observation length of ``side`` on ``params`` (the module docstring of
+    :mod:`wolfpack.parallel_env` has the layout)."""
+    batch = BatchEnv(params, num_envs=1, learners=side, seed=0, threads=1)
+    return batch.wolf_obs_dim if side == "wolves" else batch.target_obs_dim
 
 
 # --- rollouts and evaluation -----------------------------------------------------------------

@@ -55,6 +55,7 @@ from common import (  # noqa: E402
     env_params,
     hyperparams,
     load_model,
+    observation_size,
     positive_int,
     prepare_out,
     report,
@@ -217,10 +218,7 @@ def check_same_spaces(source, params: dict, side: str) -> None:
     """UsageError unless ``params`` gives the learning side the observation size and action
     mode that ``source`` was trained with (its weights would not fit, or would mean something
     else)."""
-    import wolfpack
-
-    batch = wolfpack.BatchEnv(params, num_envs=1, learners=side, seed=0, threads=1)
-    ours = (batch.wolf_obs_dim if side == "wolves" else batch.target_obs_dim, params["env"]["action_mode"])
+    ours = (observation_size(params, side), params["env"]["action_mode"])
     theirs = (int(source.model.observation_space.shape[0]), source.params["env"]["action_mode"])
     if theirs != ours:
         raise UsageError(
