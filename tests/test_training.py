@@ -255,3 +255,27 @@ def test_target_wall_distance_is_the_final_pose_to_the_nearest_wall():
     [row] = common.rollout(params, episodes=1, seed=4)
     x, y = common.record_episode(params, 4)["targets"][-1, 0, :2]
     assert row["target_wall_distance"] == pytest.approx(min(x + 9, 10 - x, y + 8, 11 - y), abs=1e-12)
+
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
+
+
+def test_published_models_reload_and_reproduce_results_md():
+    """The models of RESULTS.md load in this version and, on the same 200 seeds, give its
+    numbers: exactly on the machine that made them; within a few episodes elsewhere (torch's
+    CPU kernels may round the last bit differently, and trajectories are chaotic)."""
+    published = {(r["wolves"], r["targets"]): r for r in json.loads((RESULTS / "results.json").read_text())["rows"]}
+    scripted = published[("seed000", "escape")]
+    rows = {}
+    for name in ("escape_ppo", "wolves_bc_vel_b", "wolves_ft"):
+        m = common.load_model(RESULTS / "models" / name)
+        row = common.evaluate_model(m, episodes=200, seed=0, threads=None)
+        row.pop("capture_steps")
+        want = published[(row["wolves"], row["targets"])]
+        assert abs(row["capture_rate"] - want["capture_rate"]) <= 0.05, (name, row["capture_rate"], want["capture_rate"])
+        rows[name] = row
+    # the claims of RESULTS.md: (a) the learned target survives >= 2x as often as scripted escape
+    assert rows["escape_ppo"]["survival_rate"] >= 2 * scripted["survival_rate"]
+    # (b) imitation >= 80 % of seed000's capture rate; fine-tuned wolves capture sooner (median)
+    assert rows["wolves_bc_vel_b"]["capture_rate"] >= 0.8 * scripted["capture_rate"]
+    assert rows["wolves_ft"]["median_capture_steps"] < scripted["median_capture_steps"]
