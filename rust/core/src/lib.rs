@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod math;
 pub mod observe;
 pub mod policies;
+pub mod render;
 pub mod reward;
 pub mod world;
 

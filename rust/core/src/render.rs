@@ -1,0 +1,402 @@
+//! Headless rendering of one world state into an RGB frame (tiny-skia, no display server).
+//!
+//! The scene is plain data ([`Scene`]) so that a live world and a saved trajectory draw the
+//! same frame: the Python side builds it from `world_state()` or from `trajectory.npz`.
+//!
+//! What is drawn, back to front: the arena (white inside, grey outside), trails (each agent's
+//! recent positions as a polyline in its colour), sensing circles (optional), obstacles with
+//! their exact shapes (static: dark grey; moving: orange-brown with a darker outline), the
+//! capture ring around every uncaptured target, interaction links (optional, observer →
+//! observed), wolves and targets as oriented triangles (apex ahead; every wolf its own colour,
+//! targets red), and the step count in the top-left corner.
+
+use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
+
+/// An RGB colour.
+pub type Rgb = [u8; 3];
+
+/// Colours of wolf i (cycled) — matplotlib's tab10 without its red, which is the targets'.
+pub const WOLF_COLOURS: [Rgb; 9] = [
+    [31, 119, 180],
+    [44, 160, 44],
+    [148, 103, 189],
+    [255, 127, 14],
+    [140, 86, 75],
+    [227, 119, 194],
+    [127, 127, 127],
+    [188, 189, 34],
+    [23, 190, 207],
+];
+pub const TARGET_COLOUR: Rgb = [214, 39, 40];
+pub const BACKGROUND: Rgb = [255, 255, 255];
+pub const OUTSIDE: Rgb = [225, 225, 225];
+pub const STATIC_OBSTACLE: Rgb = [90, 90, 90];
+pub const MOVING_OBSTACLE: Rgb = [176, 122, 72];
+
+/// The colour of wolf `i`.
+pub fn wolf_colour(i: usize) -> Rgb {
+    WOLF_COLOURS[i % WOLF_COLOURS.len()]
+}
+
+/// An obstacle in world coordinates.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    Circle { center: [f64; 2], radius: f64 },
+    /// Vertices in order (the polygon need not be convex).
+    Polygon { vertices: Vec<[f64; 2]> },
+}
+
+#[derive(Debug, Clone)]
+pub struct SceneObstacle {
+    pub shape: Shape,
+    pub moving: bool,
+}
+
+/// Everything one frame shows.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    /// `[x_min, y_min, x_max, y_max]`.
+    pub border: [f64; 4],
+    /// Poses (x, y, θ).
+    pub wolves: Vec<[f64; 3]>,
+    pub targets: Vec<[f64; 3]>,
+    /// Captured targets get no capture ring (and are drawn hollow).
+    pub target_captured: Vec<bool>,
+    pub obstacles: Vec<SceneObstacle>,
+    /// Recent positions per agent (wolves first, then targets), oldest first.
+    pub trails: Vec<Vec<[f64; 2]>>,
+    /// Interaction links (observer, observed) over agents indexed wolves first, then targets.
+    pub links: Vec<(usize, usize)>,
+    /// Radius of the capture ring (0: none).
+    pub capture_distance: f64,
+    /// Radius of the sensing circle drawn around every agent (0: none).
+    pub sense_radius: f64,
+    /// Body size: triangle height = base (m).
+    pub body: f64,
+    /// The step count shown in the corner (None: nothing).
+    pub step: Option<u64>,
+}
+
+/// Frame size limits (pixels per side).
+pub const MIN_SIDE: u32 = 16;
+pub const MAX_SIDE: u32 = 4096;
+
+/// Renders `scene` into a new `height × width × 3` RGB buffer (row-major, top row first).
+pub fn render(scene: &Scene, width: u32, height: u32) -> Result<Vec<u8>, String> {
+    if !(MIN_SIDE..=MAX_SIDE).contains(&width) || !(MIN_SIDE..=MAX_SIDE).contains(&height) {
+        return Err(format!("frame size must be between {MIN_SIDE} and {MAX_SIDE} pixels per side, got {width}x{height}"));
+    }
+    let [x0, y0, x1, y1] = scene.border;
+    if !(x1 > x0 && y1 > y0) || !scene.border.iter().all(|v| v.is_finite()) {
+        return Err(format!("border must be finite with x_max > x_min and y_max > y_min, got {:?}", scene.border));
+    }
+    let mut pixmap = Pixmap::new(width, height).ok_or("cannot allocate the frame")?;
+    pixmap.fill(colour(OUTSIDE, 255));
+    let view = View::new(scene.border, width, height);
+    let mut canvas = Canvas { pixmap: &mut pixmap, view };
+
+    canvas.arena(scene.border);
+    for (k, trail) in scene.trails.iter().enumerate() {
+        canvas.polyline(trail, agent_colour(scene, k), 150, 1.5);
+    }
+    if scene.sense_radius > 0.0 {
+        for (k, p) in all_poses(scene).enumerate() {
+            canvas.circle_outline([p[0], p[1]], scene.sense_radius, agent_colour(scene, k), 60, 1.0);
+        }
+    }
+    for ob in &scene.obstacles {
+        canvas.obstacle(ob);
+    }
+    if scene.capture_distance > 0.0 {
+        for (t, captured) in scene.targets.iter().zip(scene.target_captured.iter().chain(std::iter::repeat(&false))) {
+            if !captured {
+                canvas.circle_outline([t[0], t[1]], scene.capture_distance, TARGET_COLOUR, 160, 1.0);
+            }
+        }
+    }
+    let poses: Vec<[f64; 3]> = all_poses(scene).collect();
+    for &(a, b) in &scene.links {
+        if a < poses.len() && b < poses.len() {
+            canvas.segment([poses[a][0], poses[a][1]], [poses[b][0], poses[b][1]], [40, 40, 40], 90, 1.0);
+        }
+    }
+    // Bodies at true scale, but never smaller than 9 px, so that agents stay visible.
+    let min_height = 9.0 / canvas.view.scale;
+    let h = scene.body.max(min_height);
+    for (k, p) in poses.iter().enumerate() {
+        let hollow = k >= scene.wolves.len() && scene.target_captured.get(k - scene.wolves.len()).copied().unwrap_or(false);
+        canvas.triangle(*p, h, agent_colour(scene, k), hollow);
+    }
+    if let Some(step) = scene.step {
+        canvas.number(step, 4.0, 4.0, (height as f32 / 100.0).clamp(1.0, 4.0));
+    }
+
+    let mut rgb = Vec::with_capacity((width * height * 3) as usize);
+    for px in pixmap.data().chunks_exact(4) {
+        rgb.extend_from_slice(&px[..3]); // the background is opaque: premultiplied = straight
+    }
+    Ok(rgb)
+}
+
+/// The triangle's centroid for pose `p` and body height `h` — where a test finds the colour.
+pub fn body_centroid(p: [f64; 3], h: f64) -> [f64; 2] {
+    [p[0] + h / 3.0 * p[2].cos(), p[1] + h / 3.0 * p[2].sin()]
+}
+
+fn all_poses(scene: &Scene) -> impl Iterator<Item = [f64; 3]> + '_ {
+    scene.wolves.iter().chain(&scene.targets).copied()
+}
+
+fn agent_colour(scene: &Scene, k: usize) -> Rgb {
+    if k < scene.wolves.len() {
+        wolf_colour(k)
+    } else {
+        TARGET_COLOUR
+    }
+}
+
+fn colour(c: Rgb, alpha: u8) -> Color {
+    Color::from_rgba8(c[0], c[1], c[2], alpha)
+}
+
+fn paint(c: Rgb, alpha: u8) -> Paint<'static> {
+    let mut p = Paint::default();
+    p.set_color(colour(c, alpha));
+    p.anti_alias = true;
+    p
+}
+
+/// World → pixel mapping: the arena fills the frame with a 3 % margin, aspect kept, y up.
+#[derive(Debug, Clone, Copy)]
+pub struct View {
+    pub scale: f64,
+    ox: f64,
+    oy: f64,
+    height: f64,
+}
+
+impl View {
+    pub fn new([x0, y0, x1, y1]: [f64; 4], width: u32, height: u32) -> Self {
+        let (w, h) = (width as f64, height as f64);
+        let scale = 0.94 * (w / (x1 - x0)).min(h / (y1 - y0));
+        let ox = (w - scale * (x1 - x0)) / 2.0 - scale * x0;
+        let oy = (h - scale * (y1 - y0)) / 2.0 - scale * y0;
+        View { scale, ox, oy, height: h }
+    }
+
+    /// Pixel coordinates (x right, y down) of world point `p`.
+    pub fn px(&self, p: [f64; 2]) -> (f32, f32) {
+        ((self.ox + self.scale * p[0]) as f32, (self.height - (self.oy + self.scale * p[1])) as f32)
+    }
+}
+
+struct Canvas<'a> {
+    pixmap: &'a mut Pixmap,
+    view: View,
+}
+
+impl Canvas<'_> {
+    fn fill(&mut self, pb: PathBuilder, c: Rgb, alpha: u8) {
+        if let Some(path) = pb.finish() {
+            self.pixmap.fill_path(&path, &paint(c, alpha), FillRule::EvenOdd, Transform::identity(), None);
+        }
+    }
+
+    fn stroke(&mut self, pb: PathBuilder, c: Rgb, alpha: u8, width: f32) {
+        if let Some(path) = pb.finish() {
+            let stroke = Stroke { width, ..Stroke::default() };
+            self.pixmap.stroke_path(&path, &paint(c, alpha), &stroke, Transform::identity(), None);
+        }
+    }
+
+    fn arena(&mut self, [x0, y0, x1, y1]: [f64; 4]) {
+        let (a, b) = (self.view.px([x0, y1]), self.view.px([x1, y0]));
+        if let Some(rect) = Rect::from_ltrb(a.0, a.1, b.0, b.1) {
+            self.pixmap.fill_rect(rect, &paint(BACKGROUND, 255), Transform::identity(), None);
+            let mut pb = PathBuilder::new();
+            pb.push_rect(rect);
+            self.stroke(pb, [0, 0, 0], 255, 2.0);
+        }
+    }
+
+    fn polygon_path(&self, points: impl IntoIterator<Item = [f64; 2]>) -> PathBuilder {
+        let mut pb = PathBuilder::new();
+        for (i, p) in points.into_iter().enumerate() {
+            let (x, y) = self.view.px(p);
+            if i == 0 {
+                pb.move_to(x, y);
+            } else {
+                pb.line_to(x, y);
+            }
+        }
+        pb.close();
+        pb
+    }
+
+    fn circle_path(&self, center: [f64; 2], radius: f64) -> PathBuilder {
+        let (x, y) = self.view.px(center);
+        let mut pb = PathBuilder::new();
+        pb.push_circle(x, y, (radius * self.view.scale).max(0.5) as f32);
+        pb
+    }
+
+    fn obstacle(&mut self, ob: &SceneObstacle) {
+        let (fill, edge) = if ob.moving { (MOVING_OBSTACLE, [110, 70, 35]) } else { (STATIC_OBSTACLE, [40, 40, 40]) };
+        let path = || match &ob.shape {
+            Shape::Circle { center, radius } => self.circle_path(*center, *radius),
+            Shape::Polygon { vertices } => self.polygon_path(vertices.iter().copied()),
+        };
+        let (a, b) = (path(), path());
+        self.fill(a, fill, 255);
+        self.stroke(b, edge, 255, if ob.moving { 2.0 } else { 1.0 });
+    }
+
+    fn circle_outline(&mut self, center: [f64; 2], radius: f64, c: Rgb, alpha: u8, width: f32) {
+        let pb = self.circle_path(center, radius);
+        self.stroke(pb, c, alpha, width);
+    }
+
+    fn segment(&mut self, a: [f64; 2], b: [f64; 2], c: Rgb, alpha: u8, width: f32) {
+        let (pa, pb_) = (self.view.px(a), self.view.px(b));
+        let mut pb = PathBuilder::new();
+        pb.move_to(pa.0, pa.1);
+        pb.line_to(pb_.0, pb_.1);
+        self.stroke(pb, c, alpha, width);
+    }
+
+    fn polyline(&mut self, points: &[[f64; 2]], c: Rgb, alpha: u8, width: f32) {
+        if points.len() < 2 {
+            return;
+        }
+        let mut pb = PathBuilder::new();
+        for (i, p) in points.iter().enumerate() {
+            let (x, y) = self.view.px(*p);
+            if i == 0 {
+                pb.move_to(x, y);
+            } else {
+                pb.line_to(x, y);
+            }
+        }
+        self.stroke(pb, c, alpha, width);
+    }
+
+    /// SPEC §1.2's isosceles body scaled to height = base = `h`: apex ahead, base through the
+    /// pose point.
+    fn triangle(&mut self, [x, y, th]: [f64; 3], h: f64, c: Rgb, hollow: bool) {
+        let (s, co) = th.sin_cos();
+        let apex = [x + h * co, y + h * s];
+        let left = [x - h / 2.0 * s, y + h / 2.0 * co];
+        let right = [x + h / 2.0 * s, y - h / 2.0 * co];
+        let outline = self.polygon_path([apex, left, right]);
+        if !hollow {
+            let body = self.polygon_path([apex, left, right]);
+            self.fill(body, c, 255);
+        }
+        self.stroke(outline, if hollow { c } else { [0, 0, 0] }, 255, 1.0);
+    }
+
+    /// `n` in a 3 × 5 pixel font scaled by `size`, top-left corner at (x, y).
+    fn number(&mut self, n: u64, x: f32, y: f32, size: f32) {
+        let digits = n.to_string();
+        let cell = 4.0 * size;
+        let backdrop = Rect::from_xywh(x - size, y - size, cell * digits.len() as f32 + size, 7.0 * size);
+        if let Some(r) = backdrop {
+            self.pixmap.fill_rect(r, &paint(BACKGROUND, 200), Transform::identity(), None);
+        }
+        let ink = paint([0, 0, 0], 255);
+        for (k, ch) in digits.bytes().enumerate() {
+            let glyph = DIGITS[(ch - b'0') as usize];
+            for (row, bits) in glyph.iter().enumerate() {
+                for col in 0..3 {
+                    if bits & (0b100 >> col) != 0 {
+                        let r = Rect::from_xywh(x + k as f32 * cell + col as f32 * size, y + row as f32 * size, size, size);
+                        if let Some(r) = r {
+                            self.pixmap.fill_rect(r, &ink, Transform::identity(), None);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// 3 × 5 digit glyphs, one row per entry, bit 2 = left column. (No font library for ten
+/// glyphs: tiny-skia draws no text, and a font file would be the larger dependency.)
+const DIGITS: [[u8; 5]; 10] = [
+    [0b111, 0b101, 0b101, 0b101, 0b111],
+    [0b010, 0b110, 0b010, 0b010, 0b111],
+    [0b111, 0b001, 0b111, 0b100, 0b111],
+    [0b111, 0b001, 0b111, 0b001, 0b111],
+    [0b101, 0b101, 0b111, 0b001, 0b001],
+    [0b111, 0b100, 0b111, 0b001, 0b111],
+    [0b111, 0b100, 0b111, 0b101, 0b111],
+    [0b111, 0b001, 0b010, 0b010, 0b010],
+    [0b111, 0b101, 0b111, 0b101, 0b111],
+    [0b111, 0b101, 0b111, 0b001, 0b111],
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pixel(frame: &[u8], width: u32, (x, y): (f32, f32)) -> Rgb {
+        let (x, y) = (x.floor() as usize, y.floor() as usize);
+        let i = 3 * (y * width as usize + x);
+        [frame[i], frame[i + 1], frame[i + 2]]
+    }
+
+    fn scene() -> Scene {
+        Scene {
+            border: [-10.0, -10.0, 10.0, 10.0],
+            wolves: vec![[-5.0, -5.0, 0.0], [5.0, 5.0, 1.0]],
+            targets: vec![[0.0, 6.0, 2.0]],
+            target_captured: vec![false],
+            obstacles: vec![
+                SceneObstacle { shape: Shape::Circle { center: [3.0, -3.0], radius: 1.0 }, moving: false },
+                SceneObstacle { shape: Shape::Polygon { vertices: vec![[-4.0, 2.0], [-2.0, 2.0], [-3.0, 4.0]] }, moving: true },
+            ],
+            capture_distance: 0.8,
+            body: 0.2,
+            step: Some(123),
+            ..Scene::default()
+        }
+    }
+
+    #[test]
+    fn pixels_have_the_colours_of_what_is_there() {
+        let s = scene();
+        let (w, h) = (300, 200);
+        let frame = render(&s, w, h).unwrap();
+        assert_eq!(frame.len(), (w * h * 3) as usize);
+        let view = View::new(s.border, w, h);
+        let body = s.body.max(9.0 / view.scale);
+        for (i, p) in s.wolves.iter().enumerate() {
+            assert_eq!(pixel(&frame, w, view.px(body_centroid(*p, body))), wolf_colour(i), "wolf {i}");
+        }
+        assert_eq!(pixel(&frame, w, view.px(body_centroid(s.targets[0], body))), TARGET_COLOUR);
+        assert_eq!(pixel(&frame, w, view.px([3.0, -3.0])), STATIC_OBSTACLE);
+        assert_eq!(pixel(&frame, w, view.px([-3.0, 2.7])), MOVING_OBSTACLE);
+        assert_eq!(pixel(&frame, w, view.px([0.0, -8.0])), BACKGROUND);
+        assert_eq!(pixel(&frame, w, (2.0, h as f32 / 2.0)), OUTSIDE, "the 300x200 frame pads a square arena left and right");
+    }
+
+    #[test]
+    fn step_count_and_captured_targets_change_the_frame() {
+        let s = scene();
+        let a = render(&s, 120, 120).unwrap();
+        let mut t = s.clone();
+        t.step = Some(124);
+        assert_ne!(a, render(&t, 120, 120).unwrap());
+        let mut c = s.clone();
+        c.target_captured = vec![true];
+        assert_ne!(a, render(&c, 120, 120).unwrap());
+    }
+
+    #[test]
+    fn bad_sizes_and_borders_are_errors() {
+        assert!(render(&scene(), 8, 100).unwrap_err().contains("frame size"));
+        let mut s = scene();
+        s.border = [0.0, 0.0, 0.0, 1.0];
+        assert!(render(&s, 100, 100).unwrap_err().contains("border"));
+    }
+}
