@@ -2,6 +2,9 @@
 
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 __version__: str
 
 def default_params() -> dict[str, Any]:
@@ -26,6 +29,10 @@ def run_episodes(
 ) -> list[dict[str, Any]]:
     """Runs scripted episodes ``first .. first+count`` (seed ``seed + k``) in parallel with the
     GIL released; one result dict per episode, in order."""
+
+def render_frame(scene: dict[str, Any], width: int, height: int) -> NDArray[np.uint8]:
+    """Draws a scene dict (built by :mod:`wolfpack.render`) into a new (height, width, 3) uint8
+    RGB array with the GIL released; ValueError on a malformed scene or a size outside 16..4096."""
 
 class BatchEnv:
     """The native batch (private; see ``wolfpack.BatchEnv``): ``num_envs`` worlds stepped

@@ -26,18 +26,21 @@ import gymnasium
 import numpy as np
 
 from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
-from wolfpack.parallel_env import action_box, check_render_mode, observation_box
+from wolfpack.parallel_env import action_box, check_render_mode, check_render_options, observation_box
+from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
 
 
 class EscapeEnv(gymnasium.Env):
     """See the module docstring."""
 
-    metadata = {"render_modes": [], "render_fps": 10}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
 
-    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, render_mode: str | None = None, seed: int = 0, **overrides: Any) -> None:
-        self._init_kwargs = dict(params=params, render_mode=render_mode, seed=seed, **overrides)
+    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, **overrides: Any) -> None:
+        self._init_kwargs = dict(params=params, render_mode=render_mode, render_options=render_options, seed=seed, **overrides)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
+        frame_options = FrameOptions(**check_render_options(render_options))
         self._batch = BatchEnv(params, num_envs=1, learners="targets", seed=seed, autoreset=False, threads=1, **overrides)
+        self._view = EnvRendering(self.render_mode, self._batch.params, frame_options, self.metadata["render_fps"])
         if self._batch.n_targets != 1:
             raise ValueError(f"Escape-v0 has one learning target; world.targets is {self._batch.n_targets} (use wolfpack.parallel_env for several)")
         self.observation_space = observation_box(self._batch.target_obs_dim)
@@ -64,6 +67,7 @@ class EscapeEnv(gymnasium.Env):
             seed = self._seed
         out = self._batch.reset_world(0, seed, layout)
         self._started, self._done = True, False
+        self._view.record(self.world_state)
         return out["obs_targets"][0, 0], self._info(out)
 
     def step(self, action: Any):
@@ -74,6 +78,7 @@ class EscapeEnv(gymnasium.Env):
         # Shape and dtype here; a NaN or inf is refused by the core, naming target_0.
         a = check_action(action, "action")
         out = self._batch.step(None, a.reshape(1, 1, 2))
+        self._view.record(self.world_state)
         terminated, truncated = bool(out["terminated"][0]), bool(out["truncated"][0])
         self._done = terminated or truncated
         return out["obs_targets"][0, 0], float(out["rewards_targets"][0, 0]), terminated, truncated, self._info(out)
@@ -91,5 +96,9 @@ class EscapeEnv(gymnasium.Env):
         return self._batch.expert_actions()[1][0, 0].copy()
 
     def render(self):
-        return None
+        """``rgb_array``: the current frame, uint8 [H, W, 3]; ``human``: shown in a window."""
+        return self._view.render()
+
+    def close(self) -> None:
+        self._view.close()
 

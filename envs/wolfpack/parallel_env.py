@@ -88,6 +88,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
+from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
 
 def action_box() -> spaces.Box:
     """A new action space (each agent and env gets its own, so that seeding one space's
@@ -104,6 +105,19 @@ def observation_box(dim: int) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, (dim,), np.float32)
 
 
+def check_render_options(options: Mapping[str, Any] | None) -> dict:
+    """``render_options`` as FrameOptions keywords; ValueError naming an unknown key."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(f"render_options must be a dict, got {type(options).__name__}")
+    known = ("width", "height", "trail", "sensing", "links")
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise ValueError(f"render_options: unknown key(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}")
+    return dict(options)
+
+
 def check_render_mode(render_mode: str | None, allowed: tuple[str, ...]) -> str | None:
     if render_mode is not None and render_mode not in allowed:
         raise ValueError(f"render_mode must be None{''.join(', ' + repr(m) for m in allowed)}, got {render_mode!r}")
@@ -113,7 +127,7 @@ def check_render_mode(render_mode: str | None, allowed: tuple[str, ...]) -> str 
 class WolfpackParallelEnv(ParallelEnv):
     """See the module docstring. Build it with :func:`wolfpack.parallel_env`."""
 
-    metadata = {"name": "wolfpack_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {"name": "wolfpack_v0", "render_modes": RENDER_MODES, "is_parallelizable": True, "render_fps": 10}
 
     def __init__(
         self,
@@ -121,12 +135,15 @@ class WolfpackParallelEnv(ParallelEnv):
         *,
         learners: str = "wolves",
         render_mode: str | None = None,
+        render_options: Mapping[str, Any] | None = None,
         seed: int = 0,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, learners=learners, render_mode=render_mode, seed=seed, **overrides)
+        self._init_kwargs = dict(params=params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, **overrides)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
+        frame_options = FrameOptions(**check_render_options(render_options))
         self._batch = BatchEnv(params, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1, **overrides)
+        self._view = EnvRendering(self.render_mode, self._batch.params, frame_options, self.metadata["render_fps"])
         self.learners = learners
         n, m = self._batch.n_wolves, self._batch.n_targets
         self._wolves = [f"wolf_{i}" for i in range(n)] if self._batch.learns_wolves else []
@@ -169,6 +186,7 @@ class WolfpackParallelEnv(ParallelEnv):
         self._started = True
         self.agents = list(self.possible_agents)
         self._captured = np.zeros(self._batch.n_targets, dtype=bool)
+        self._view.record(self.world_state)
         return self._observations(out), self._infos(out, self.agents)
 
     def step(self, actions: Mapping[str, Any]):
@@ -197,6 +215,7 @@ class WolfpackParallelEnv(ParallelEnv):
                 bad = next(a for a in self.agents if not np.isfinite(np.asarray(actions[a], np.float32)).all())
                 raise ValueError(f"action of {bad} is not finite: {np.asarray(actions[bad]).tolist()}")
         out = self._batch.step(wa, ta)
+        self._view.record(self.world_state)
         terminated_world, truncated_world = bool(out["terminated"][0]), bool(out["truncated"][0])
         captured = out["capture_step"][0] >= 0
         obs = self._observations(out)
@@ -257,12 +276,12 @@ class WolfpackParallelEnv(ParallelEnv):
         return np.concatenate([s["wolves"].ravel(), s["targets"].ravel()]).astype(np.float32)
 
     def render(self):
-        if self.render_mode is None:
-            return None
-        raise NotImplementedError  # pragma: no cover — no render modes are offered yet
+        """``rgb_array``: the current frame, uint8 [H, W, 3] (see :mod:`wolfpack.render`);
+        ``human``: shows it in a window and returns None; no render mode: None."""
+        return self._view.render()
 
     def close(self) -> None:
-        pass
+        self._view.close()
 
 
 

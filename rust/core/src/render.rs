@@ -10,6 +10,7 @@
 //! observed), wolves and targets as oriented triangles (apex ahead; every wolf its own colour,
 //! targets red), and the step count in the top-left corner.
 
+use serde::Deserialize;
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
 
 /// An RGB colour.
@@ -38,22 +39,46 @@ pub fn wolf_colour(i: usize) -> Rgb {
     WOLF_COLOURS[i % WOLF_COLOURS.len()]
 }
 
-/// An obstacle in world coordinates.
-#[derive(Debug, Clone)]
-pub enum Shape {
-    Circle { center: [f64; 2], radius: f64 },
-    /// Vertices in order (the polygon need not be convex).
-    Polygon { vertices: Vec<[f64; 2]> },
-}
-
-#[derive(Debug, Clone)]
+/// An obstacle at its current pose. Polygons come as their constant local vertices (relative to
+/// the centre at angle 0) and the pose, exactly as `world_state()` and `trajectory.npz` store
+/// them, so that a live run and its replay draw the same pixels.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SceneObstacle {
-    pub shape: Shape,
+    /// "circle" or "polygon".
+    pub kind: String,
+    #[serde(default)]
     pub moving: bool,
+    pub center: [f64; 2],
+    #[serde(default)]
+    pub angle: f64,
+    /// Circle radius (polygons: ignored).
+    #[serde(default)]
+    pub radius: f64,
+    /// Polygon vertices relative to the centre at angle 0, in order.
+    #[serde(default)]
+    pub local: Vec<[f64; 2]>,
 }
 
-/// Everything one frame shows.
-#[derive(Debug, Clone, Default)]
+impl SceneObstacle {
+    pub fn circle(center: [f64; 2], radius: f64, moving: bool) -> Self {
+        SceneObstacle { kind: "circle".into(), moving, center, angle: 0.0, radius, local: vec![] }
+    }
+
+    pub fn polygon(center: [f64; 2], angle: f64, local: Vec<[f64; 2]>, moving: bool) -> Self {
+        SceneObstacle { kind: "polygon".into(), moving, center, angle, radius: 0.0, local }
+    }
+
+    /// World vertices at the current pose.
+    pub fn vertices(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        let (s, c) = self.angle.sin_cos();
+        self.local.iter().map(move |v| [self.center[0] + c * v[0] - s * v[1], self.center[1] + s * v[0] + c * v[1]])
+    }
+}
+
+/// Everything one frame shows (deserialisable: the Python side hands it over as a dict).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Scene {
     /// `[x_min, y_min, x_max, y_max]`.
     pub border: [f64; 4],
@@ -89,6 +114,9 @@ pub fn render(scene: &Scene, width: u32, height: u32) -> Result<Vec<u8>, String>
     let [x0, y0, x1, y1] = scene.border;
     if !(x1 > x0 && y1 > y0) || !scene.border.iter().all(|v| v.is_finite()) {
         return Err(format!("border must be finite with x_max > x_min and y_max > y_min, got {:?}", scene.border));
+    }
+    if let Some(bad) = scene.obstacles.iter().find(|o| o.kind != "circle" && o.kind != "polygon") {
+        return Err(format!("obstacle kind must be 'circle' or 'polygon', got {:?}", bad.kind));
     }
     let mut pixmap = Pixmap::new(width, height).ok_or("cannot allocate the frame")?;
     pixmap.fill(colour(OUTSIDE, 255));
@@ -242,10 +270,7 @@ impl Canvas<'_> {
 
     fn obstacle(&mut self, ob: &SceneObstacle) {
         let (fill, edge) = if ob.moving { (MOVING_OBSTACLE, [110, 70, 35]) } else { (STATIC_OBSTACLE, [40, 40, 40]) };
-        let path = || match &ob.shape {
-            Shape::Circle { center, radius } => self.circle_path(*center, *radius),
-            Shape::Polygon { vertices } => self.polygon_path(vertices.iter().copied()),
-        };
+        let path = || if ob.kind == "circle" { self.circle_path(ob.center, ob.radius) } else { self.polygon_path(ob.vertices()) };
         let (a, b) = (path(), path());
         self.fill(a, fill, 255);
         self.stroke(b, edge, 255, if ob.moving { 2.0 } else { 1.0 });
@@ -352,8 +377,9 @@ mod tests {
             targets: vec![[0.0, 6.0, 2.0]],
             target_captured: vec![false],
             obstacles: vec![
-                SceneObstacle { shape: Shape::Circle { center: [3.0, -3.0], radius: 1.0 }, moving: false },
-                SceneObstacle { shape: Shape::Polygon { vertices: vec![[-4.0, 2.0], [-2.0, 2.0], [-3.0, 4.0]] }, moving: true },
+                SceneObstacle::circle([3.0, -3.0], 1.0, false),
+                // the triangle (-4, 2), (-2, 2), (-3, 4), stored rotated by -π/2 and posed at +π/2
+                SceneObstacle::polygon([-3.0, 3.0], std::f64::consts::FRAC_PI_2, vec![[-1.0, 1.0], [-1.0, -1.0], [1.0, 0.0]], true),
             ],
             capture_distance: 0.8,
             body: 0.2,
@@ -378,6 +404,15 @@ mod tests {
         assert_eq!(pixel(&frame, w, view.px([-3.0, 2.7])), MOVING_OBSTACLE);
         assert_eq!(pixel(&frame, w, view.px([0.0, -8.0])), BACKGROUND);
         assert_eq!(pixel(&frame, w, (2.0, h as f32 / 2.0)), OUTSIDE, "the 300x200 frame pads a square arena left and right");
+    }
+
+    #[test]
+    fn polygon_vertices_follow_the_pose() {
+        let ob = SceneObstacle::polygon([-3.0, 3.0], std::f64::consts::FRAC_PI_2, vec![[-1.0, 1.0], [-1.0, -1.0], [1.0, 0.0]], true);
+        let want = [[-4.0, 2.0], [-2.0, 2.0], [-3.0, 4.0]];
+        for (v, w) in ob.vertices().zip(want) {
+            assert!((v[0] - w[0]).abs() < 1e-12 && (v[1] - w[1]).abs() < 1e-12, "{v:?} vs {w:?}");
+        }
     }
 
     #[test]

@@ -14,6 +14,7 @@ use pythonize::pythonize;
 use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
 use wolfpack_core::episode::{run_episodes as core_run_episodes, EpisodeResult, Trajectory};
 use wolfpack_core::world::{Layout, World};
+use wolfpack_core::render::{render, Scene};
 use wolfpack_core::{Error, Params};
 
 fn value_error(e: Error) -> PyErr {
@@ -378,7 +379,8 @@ impl PyBatchEnv {
     }
 
     /// World `index`'s state: wolves [N, 5] and targets [M, 5] (x, y, θ, v, ω), energy [N+M],
-    /// interaction [(N+M), (N+M)] uint8, captured [M], obstacles (list of dicts), step,
+    /// interaction [(N+M), (N+M)] uint8, captured [M], obstacles (list of dicts: kind, moving,
+    /// center, radius, angle, vertices [world], local [at angle 0]), step,
     /// outcome, seed, episode.
     fn world_state<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
         let w = self.inner.world(index).ok_or_else(|| PyValueError::new_err(format!("world index {index} out of range (num_envs = {})", self.inner.num_envs())))?;
@@ -400,6 +402,7 @@ impl PyBatchEnv {
             od.set_item("angle", o.angle)?;
             let k = o.vertices.len();
             od.set_item("vertices", array(py, o.vertices.iter().flat_map(|v| [v.x, v.y]).collect(), &[k, 2])?)?;
+            od.set_item("local", array(py, o.local.iter().flat_map(|v| [v.x, v.y]).collect(), &[k, 2])?)?;
             obstacles.append(od)?;
         }
         d.set_item("obstacles", obstacles)?;
@@ -412,6 +415,16 @@ impl PyBatchEnv {
     }
 }
 
+/// Renders a scene dict (the fields of `wolfpack_core::render::Scene`; built by
+/// `wolfpack.render`) into a new uint8 array of shape (height, width, 3). ValueError on a bad
+/// scene or size.
+#[pyfunction]
+fn render_frame<'py>(py: Python<'py>, scene: &Bound<'py, PyAny>, width: u32, height: u32) -> PyResult<Bound<'py, PyAny>> {
+    let scene: Scene = pythonize::depythonize(scene).map_err(|e| PyValueError::new_err(format!("scene: {e}")))?;
+    let frame = py.detach(|| guarded(|| render(&scene, width, height)))?.map_err(PyValueError::new_err)?;
+    array(py, frame, &[height as usize, width as usize, 3])
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // Panics are caught at the border and reported as RuntimeError; keep their default
@@ -422,6 +435,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate_params, m)?)?;
     m.add_function(wrap_pyfunction!(check_layout, m)?)?;
     m.add_function(wrap_pyfunction!(run_episodes, m)?)?;
+    m.add_function(wrap_pyfunction!(render_frame, m)?)?;
     m.add_class::<PyBatchEnv>()?;
     Ok(())
 }
