@@ -127,9 +127,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="run 'wolfpack hunt --help' or 'wolfpack bench --help' for details.",
+        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help' or 'wolfpack bench --help' for details.",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,bench}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench}", parser_class=_Parser)
 
     hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
                           description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -147,9 +147,20 @@ def build_parser() -> argparse.ArgumentParser:
     hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
                       help="with --out, draw trajectory.png and curves.png for the first N episodes only (default: 20; "
                            "0: none); summary.png and every trajectory.npz are always written")
+    hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) "
+                                                           "for the episodes that get plots (--plots)")
     hunt.add_argument("--json", action="store_true", help="print one JSON object (the summary) on stdout instead of a table")
     hunt.add_argument("--threads", metavar="T", type=_int_at_least(1), default=None, help="worker threads (default: all cores); results do not depend on it")
     hunt.set_defaults(func=cmd_hunt)
+
+    replay = sub.add_parser("replay", help="re-render a saved episode (trajectory.npz) to video and plots without re-simulating",
+                            description=REPLAY_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    replay.add_argument("episode", metavar="EPISODE_DIR", help="an episode folder of 'wolfpack hunt --out' (holding trajectory.npz), or the .npz itself")
+    replay.add_argument("--out", metavar="DIR", help="where to write episode.mp4, trajectory.png and curves.png (default: EPISODE_DIR)")
+    replay.add_argument("--no-video", action="store_true", help="plots only")
+    replay.add_argument("--size", metavar="PX", type=_int_at_least(16), default=512, help="video frame width and height in pixels (default: 512)")
+    replay.add_argument("--trail", metavar="STEPS", type=_int_at_least(0), default=40, help="trail length in steps (default: 40)")
+    replay.set_defaults(func=cmd_replay)
 
     bench = sub.add_parser("bench", help="throughput of scripted stepping (env-steps/s)",
                            description=BENCH_DESCRIPTION, epilog=BENCH_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -202,12 +213,12 @@ class RunWriter:
     only found while running). DIR itself is created at the first episode, after the first batch
     was simulated; ``summary.json`` is written last, by :meth:`finish`."""
 
-    def __init__(self, out: Path, resolved: dict, plots: int):
+    def __init__(self, out: Path, resolved: dict, plots: int, video: bool = False):
         # Imported here: matplotlib is slow to import and only needed with --out.
         from wolfpack import plots as plotting
 
         self.plotting = plotting
-        self.out, self.resolved, self.plots = out, resolved, plots
+        self.out, self.resolved, self.plots, self.video = out, resolved, plots, video
         (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
 
     def episode(self, k: int, result: dict) -> None:
@@ -220,6 +231,10 @@ class RunWriter:
         if k < self.plots:
             self.plotting.plot_trajectory(arrays, folder / "trajectory.png", label=f"episode {k}")
             self.plotting.plot_curves(arrays, folder / "curves.png", label=f"episode {k}")
+            if self.video:
+                from wolfpack import render
+
+                render.write_video(render.trajectory_frames(arrays, self.resolved), folder / "episode.mp4")
 
     def finish(self, summary: dict) -> None:
         self.plotting.plot_summary(summary["episodes_detail"], self.out / "summary.png")
@@ -298,9 +313,11 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
     _check_seed_range(args.seed, args.episodes)
     params, resolved, layout = resolve_scenario(args)
     out = Path(args.out) if args.out else None
+    if args.video and out is None:
+        raise ValueError("--video needs --out DIR (the videos are written there, one per episode)")
     if out is not None and out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
-    writer = RunWriter(out, resolved, args.plots) if out is not None else None
+    writer = RunWriter(out, resolved, args.plots, args.video) if out is not None else None
     results, seconds = simulate(args, params, layout, writer.episode if writer else lambda k, r: None)
     summary = summarize(results, seconds)
     if writer is not None:
@@ -310,6 +327,70 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
         print(json.dumps(summary))
     else:
         print(_table(summary, args, resolved))
+
+
+# --- replay -------------------------------------------------------------------------------
+
+REPLAY_DESCRIPTION = """\
+Re-render a saved episode without re-simulating it: episode.mp4 (one frame per recorded state,
+10 fps = real time), trajectory.png and curves.png, from the trajectory.npz that
+'wolfpack hunt --out DIR' wrote into DIR/episode_{k:03d}/. The frames are exactly those of
+render_mode="rgb_array" during the live run. Body size and sensing radius come from the run's
+DIR/summary.json when it is there, else from the documented scenario.
+
+examples:
+  wolfpack hunt --episodes 3 --out runs/demo
+  wolfpack replay runs/demo/episode_000
+  wolfpack replay runs/demo/episode_001/trajectory.npz --out /tmp/ep1 --size 768
+"""
+
+
+def load_episode(where: Path) -> tuple[dict, dict, Path]:
+    """(arrays, params, episode folder) of a saved episode; ValueError saying what is wrong."""
+    npz = where if where.suffix == ".npz" else where / "trajectory.npz"
+    if not where.exists():
+        raise ValueError(f"{where}: no such episode folder or file")
+    if not npz.is_file():
+        raise ValueError(f"{where}: no trajectory.npz there (an episode folder of 'wolfpack hunt --out DIR' is DIR/episode_000)")
+    try:
+        arrays = logs.load_trajectory(npz)
+    except Exception as e:  # zip/npy errors of every kind: the file is not a trajectory
+        raise ValueError(f"{npz}: not a readable trajectory.npz ({type(e).__name__}: {_one_line(e)})") from None
+    needed = ("wolves", "targets", "energy", "interaction", "outcome", "obstacle_poses", "obstacle_kind", "obstacle_radius", "obstacle_vertices", "border", "capture_distance")
+    missing = [k for k in needed if k not in arrays]
+    if missing:
+        raise ValueError(f"{npz}: not a wolfpack trajectory (missing {', '.join(missing)})")
+    rows = len(arrays["wolves"])
+    if rows < 1 or arrays["targets"].shape[0] != rows or arrays["obstacle_poses"].shape[0] != rows or arrays["interaction"].shape[0] != rows - 1:
+        raise ValueError(f"{npz}: inconsistent trajectory arrays (wolves {arrays['wolves'].shape}, targets {arrays['targets'].shape}, "
+                         f"obstacle_poses {arrays['obstacle_poses'].shape}, interaction {arrays['interaction'].shape})")
+    folder = npz.parent
+    params = _core.validate_params(None, resolve=True)
+    summary = folder.parent / logs.SUMMARY_NAME
+    if summary.is_file():
+        try:
+            params = _core.validate_params(json.loads(summary.read_text())["params"], resolve=True)
+        except (ValueError, KeyError, TypeError):
+            pass  # an unreadable summary: the defaults draw the bodies and sensing circles
+    return arrays, params, folder
+
+
+def cmd_replay(args: argparse.Namespace, argv: Sequence[str]) -> None:
+    from wolfpack import plots as plotting
+    from wolfpack import render
+
+    arrays, params, folder = load_episode(Path(args.episode))
+    out = Path(args.out) if args.out else folder
+    out.mkdir(parents=True, exist_ok=True)
+    label = f"{folder.name} (replay)"
+    plotting.plot_trajectory(arrays, out / "trajectory.png", label=label)
+    plotting.plot_curves(arrays, out / "curves.png", label=label)
+    written = ["trajectory.png", "curves.png"]
+    if not args.no_video:
+        options = render.FrameOptions(width=args.size, height=args.size, trail=args.trail)
+        frames = render.write_video(render.trajectory_frames(arrays, params, options), out / "episode.mp4")
+        written.insert(0, f"episode.mp4 ({frames} frames)")
+    print(f"wrote {', '.join(written)} to {out}")
 
 
 # --- bench --------------------------------------------------------------------------------

@@ -217,3 +217,29 @@ class EnvRendering:
 
             plt.close(self._window[0])
             self._window = None
+
+
+#: Frames per second of videos: one frame per step at Ts = 0.1 s is real time.
+VIDEO_FPS = 10
+
+
+def write_video(frames, path, fps: float = VIDEO_FPS) -> int:
+    """Encodes RGB frames (an iterable of equal-sized H×W×3 uint8 arrays) as an H.264 mp4 with
+    the ffmpeg binary of the imageio-ffmpeg wheel; returns the number of frames written."""
+    import imageio.v2 as imageio
+
+    count = 0
+    # macro_block_size=1: keep the frame size as it is (the default size 512 is a multiple of
+    # 16 anyway); yuv420p so that every player decodes it.
+    with imageio.get_writer(str(path), fps=fps, codec="libx264", macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
+        for frame in frames:
+            writer.append_data(frame)
+            count += 1
+    return count
+
+
+def read_video(path) -> np.ndarray:
+    """All frames of a video as one uint8 array [F, H, W, 3] (for tests and checks)."""
+    import imageio.v3 as iio
+
+    return iio.imread(str(path), plugin="FFMPEG")
