@@ -150,10 +150,12 @@ def test_help_explains_every_option_the_scenario_and_the_outputs(cli):
     assert proc.returncode == 0
     for word in ["--params", "--wolves", "--targets", "--episodes", "--seed", "--set", "--layout", "--out", "--plots", "--json", "--threads",
                  "captured", "collision", "timeout", "summary.json", "trajectory.npz", "trajectory.png", "curves.png", "summary.png",
-                 "examples:", "env_steps_per_second"]:
+                 "interaction.png", "episode.mp4", "--video", "examples:", "env_steps_per_second"]:
         assert word in proc.stdout, word
     top = cli("--help")
-    assert top.returncode == 0 and "hunt" in top.stdout and "bench" in top.stdout
+    assert top.returncode == 0 and "hunt" in top.stdout and "bench" in top.stdout and "replay" in top.stdout
+    replay = cli("replay", "--help")
+    assert replay.returncode == 0 and all(w in replay.stdout for w in ("EPISODE_DIR", "--out", "--no-video", "episode.mp4", "trajectory.npz"))
     bench = cli("bench", "--help")
     assert bench.returncode == 0 and "BatchEnv" in bench.stdout and "--num-envs" in bench.stdout and "--threads" in bench.stdout
 

@@ -133,7 +133,7 @@ def test_run_writer_plots_only_the_first_episodes_and_writes_the_summary_last(tm
     results = [synthetic_result(seed=s) for s in (0, 1)]
     for k, r in enumerate(results):
         writer.episode(k, r)
-    assert sorted(p.name for p in (out / "episode_000").iterdir()) == ["curves.png", "trajectory.npz", "trajectory.png"]
+    assert sorted(p.name for p in (out / "episode_000").iterdir()) == ["curves.png", "interaction.png", "trajectory.npz", "trajectory.png"]
     assert sorted(p.name for p in (out / "episode_001").iterdir()) == ["trajectory.npz"]
     assert not (out / "summary.json").exists()
     writer.finish({"episodes": 2, "episodes_detail": [logs.episode_detail(r) for r in results]})

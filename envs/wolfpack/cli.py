@@ -68,8 +68,13 @@ With --out DIR (created after the input has been checked):
                                       capture_distance
   DIR/episode_KKK/trajectory.png      (first --plots episodes) arena, obstacles at their
                                       initial (light) and final pose, paths, capture ring
-  DIR/episode_KKK/curves.png          (first --plots episodes) speed, wolf-target distance
-                                      and energy over time
+  DIR/episode_KKK/curves.png          (first --plots episodes) speed, turn rate,
+                                      wolf-target distance and energy over time
+  DIR/episode_KKK/interaction.png     (first --plots episodes) the interaction graph over
+                                      time as a heat map (observer -> observed per step)
+  DIR/episode_KKK/episode.mp4         (--video; first --plots episodes) the hunt, one frame
+                                      per state at 10 fps (real time); 'wolfpack replay'
+                                      re-renders it from trajectory.npz
 
 Invalid input (unknown key, wrong type, value out of range, an infeasible layout or spawn)
 exits with status 2 and one line on stderr naming the problem."""
@@ -145,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                        "agent counts come from the layout")
     hunt.add_argument("--out", metavar="DIR", help="write summary.json, per-episode trajectory.npz and plots under DIR")
     hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
-                      help="with --out, draw trajectory.png and curves.png for the first N episodes only (default: 20; "
+                      help="with --out, draw trajectory.png, curves.png and interaction.png (and with --video episode.mp4) for the first N episodes only (default: 20; "
                            "0: none); summary.png and every trajectory.npz are always written")
     hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) "
                                                            "for the episodes that get plots (--plots)")
@@ -156,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay = sub.add_parser("replay", help="re-render a saved episode (trajectory.npz) to video and plots without re-simulating",
                             description=REPLAY_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     replay.add_argument("episode", metavar="EPISODE_DIR", help="an episode folder of 'wolfpack hunt --out' (holding trajectory.npz), or the .npz itself")
-    replay.add_argument("--out", metavar="DIR", help="where to write episode.mp4, trajectory.png and curves.png (default: EPISODE_DIR)")
+    replay.add_argument("--out", metavar="DIR", help="where to write episode.mp4, trajectory.png, curves.png and interaction.png (default: EPISODE_DIR)")
     replay.add_argument("--no-video", action="store_true", help="plots only")
     replay.add_argument("--size", metavar="PX", type=_int_at_least(16), default=512, help="video frame width and height in pixels (default: 512)")
     replay.add_argument("--trail", metavar="STEPS", type=_int_at_least(0), default=40, help="trail length in steps (default: 40)")
@@ -231,6 +236,7 @@ class RunWriter:
         if k < self.plots:
             self.plotting.plot_trajectory(arrays, folder / "trajectory.png", label=f"episode {k}")
             self.plotting.plot_curves(arrays, folder / "curves.png", label=f"episode {k}")
+            self.plotting.plot_interaction(arrays, folder / "interaction.png", label=f"episode {k}")
             if self.video:
                 from wolfpack import render
 
@@ -333,7 +339,7 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
 
 REPLAY_DESCRIPTION = """\
 Re-render a saved episode without re-simulating it: episode.mp4 (one frame per recorded state,
-10 fps = real time), trajectory.png and curves.png, from the trajectory.npz that
+10 fps = real time), trajectory.png, curves.png and interaction.png, from the trajectory.npz that
 'wolfpack hunt --out DIR' wrote into DIR/episode_{k:03d}/. The frames are exactly those of
 render_mode="rgb_array" during the live run. Body size and sensing radius come from the run's
 DIR/summary.json when it is there, else from the documented scenario.
@@ -385,7 +391,8 @@ def cmd_replay(args: argparse.Namespace, argv: Sequence[str]) -> None:
     label = f"{folder.name} (replay)"
     plotting.plot_trajectory(arrays, out / "trajectory.png", label=label)
     plotting.plot_curves(arrays, out / "curves.png", label=label)
-    written = ["trajectory.png", "curves.png"]
+    plotting.plot_interaction(arrays, out / "interaction.png", label=label)
+    written = ["trajectory.png", "curves.png", "interaction.png"]
     if not args.no_video:
         options = render.FrameOptions(width=args.size, height=args.size, trail=args.trail)
         frames = render.write_video(render.trajectory_frames(arrays, params, options), out / "episode.mp4")

@@ -6,7 +6,10 @@ Layout of ``DIR``::
     DIR/summary.png                        outcome counts + capture-step histogram
     DIR/episode_{k:03d}/trajectory.npz     per-step logs of episode k (seed = seed + k)
     DIR/episode_{k:03d}/trajectory.png     paths (episodes k < --plots)
-    DIR/episode_{k:03d}/curves.png         speeds, wolf–target distances, energy (k < --plots)
+    DIR/episode_{k:03d}/curves.png         speeds, turn rates, wolf–target distances, energy
+                                           (k < --plots)
+    DIR/episode_{k:03d}/interaction.png    the interaction graph over time (k < --plots)
+    DIR/episode_{k:03d}/episode.mp4        the hunt as a video (--video, k < --plots)
 
 ``trajectory.npz`` (T = steps taken, N wolves, M targets, K obstacles; SI units, radians):
 

@@ -94,19 +94,24 @@ def wolf_target_distance(a: Mapping[str, np.ndarray]) -> np.ndarray:
 
 
 def plot_curves(a: Mapping[str, np.ndarray], path: Path, label: str = "episode") -> None:
-    """``curves.png`` against time t·Ts (s): per-agent speed v; each wolf's distance to the
-    (nearest) target, with the capture distance dashed; per-agent accumulated energy."""
+    """``curves.png`` against time t·Ts (s): per-agent speed v and turn rate ω; each wolf's
+    distance to the (nearest) target, with the capture distance dashed; per-agent accumulated
+    energy."""
     n, m = a["wolves"].shape[1], a["targets"].shape[1]
     time = np.arange(a["wolves"].shape[0]) * float(a["ts"])
     names = [f"wolf {i}" for i in range(n)] + [f"target {j}" if m > 1 else "target" for j in range(m)]
     colours = [_WOLF_COLOURS[i % len(_WOLF_COLOURS)] for i in range(n)] + [_TARGET_COLOUR] * m
     speeds = np.concatenate([a["wolves"][:, :, 3], a["targets"][:, :, 3]], axis=1)
 
-    fig = Figure(figsize=(7.0, 8.0), dpi=_DPI, layout="constrained")
-    ax_v, ax_d, ax_e = fig.subplots(3, 1, sharex=True)
+    turns = np.concatenate([a["wolves"][:, :, 4], a["targets"][:, :, 4]], axis=1)
+
+    fig = Figure(figsize=(7.0, 10.0), dpi=_DPI, layout="constrained")
+    ax_v, ax_w, ax_d, ax_e = fig.subplots(4, 1, sharex=True)
     for k, (name, colour) in enumerate(zip(names, colours)):
         ax_v.plot(time, speeds[:, k], color=colour, linewidth=0.8, label=name)
+        ax_w.plot(time, turns[:, k], color=colour, linewidth=0.6)
         ax_e.plot(time, a["energy"][:, k], color=colour, linewidth=0.8)
+    ax_w.set_ylabel("turn rate ω (rad/s)")
     for i, d in enumerate(wolf_target_distance(a).T):
         ax_d.plot(time, d, color=colours[i], linewidth=0.8)
     ax_d.axhline(float(a["capture_distance"]), color="black", linestyle="--", linewidth=0.8, label="capture distance")
@@ -117,6 +122,31 @@ def plot_curves(a: Mapping[str, np.ndarray], path: Path, label: str = "episode")
     ax_v.legend(loc="upper right", fontsize=7, ncol=3)
     ax_d.legend(loc="upper right", fontsize=7)
     ax_v.set_title(_title(a, label), fontsize=10)
+    fig.savefig(path)
+
+
+def plot_interaction(a: Mapping[str, np.ndarray], path: Path, label: str = "episode") -> None:
+    """``interaction.png``: the interaction graph over time as a heat map — one row per ordered
+    pair (observer → observed) that is ever linked, one column per step, dark where the
+    observer sensed or used the observed agent that step (SPEC §1.4) — beside the number of
+    links per step."""
+    inter = np.asarray(a["interaction"], dtype=np.uint8)  # [T, A, A]
+    n, m = a["wolves"].shape[1], a["targets"].shape[1]
+    names = [f"w{i}" for i in range(n)] + [f"t{j}" if m > 1 else "t" for j in range(m)]
+    pairs = [(i, j) for i in range(n + m) for j in range(n + m) if i != j and inter.shape[0] and inter[:, i, j].any()]
+    fig = Figure(figsize=(8.0, 2.0 + 0.18 * max(1, len(pairs))), dpi=_DPI, layout="constrained")
+    ax_map, ax_count = fig.subplots(2, 1, sharex=True, height_ratios=[max(1, len(pairs)), 4])
+    if pairs:
+        image = np.array([inter[:, i, j] for i, j in pairs])
+        ax_map.imshow(image, aspect="auto", interpolation="nearest", cmap="Greys", vmin=0, vmax=1, extent=(0.5, inter.shape[0] + 0.5, len(pairs) - 0.5, -0.5))
+        ax_map.set_yticks(range(len(pairs)), [f"{names[i]}→{names[j]}" for i, j in pairs], fontsize=6)
+    else:
+        ax_map.text(0.5, 0.5, "no interactions", ha="center", va="center", transform=ax_map.transAxes)
+    ax_map.set_title(_title(a, label) + ": interaction graph (observer → observed)", fontsize=10)
+    steps = np.arange(1, inter.shape[0] + 1)
+    ax_count.plot(steps, inter.reshape(inter.shape[0], -1).sum(axis=1) if inter.shape[0] else [], color="black", linewidth=0.8)
+    ax_count.set_ylabel("links")
+    ax_count.set_xlabel("step")
     fig.savefig(path)
 
 
