@@ -7,7 +7,7 @@ module only assembles the scene — from a live ``world_state()`` or from a save
 exactly.
 
 A frame shows the arena (outside grey), obstacles with their exact shapes (static dark grey,
-moving brown with a thicker outline), each agent's trail over the last ``trail`` steps, the
+moving brown), each agent's trail over the last ``trail`` steps, the
 capture ring (radius ``capture.distance``) around every uncaptured target, optionally each
 agent's sensing circle and the interaction links of the step (observer → observed, from the
 interaction matrix), wolves as oriented triangles in their own colours (``wolf_colour(i)``),

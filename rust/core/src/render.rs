@@ -5,7 +5,7 @@
 //!
 //! What is drawn, back to front: the arena (white inside, grey outside), trails (each agent's
 //! recent positions as a polyline in its colour), sensing circles (optional), obstacles with
-//! their exact shapes (static: dark grey; moving: orange-brown with a darker outline), the
+//! their exact shapes (static: dark grey; moving: brown, both with a darker outline), the
 //! capture ring around every uncaptured target, interaction links (optional, observer →
 //! observed), wolves and targets as oriented triangles (apex ahead; every wolf its own colour,
 //! targets red), and the step count in the top-left corner.
@@ -118,14 +118,34 @@ pub fn render(scene: &Scene, width: u32, height: u32) -> Result<Vec<u8>, String>
     if let Some(bad) = scene.obstacles.iter().find(|o| o.kind != "circle" && o.kind != "polygon") {
         return Err(format!("obstacle kind must be 'circle' or 'polygon', got {:?}", bad.kind));
     }
-    let mut pixmap = Pixmap::new(width, height).ok_or("cannot allocate the frame")?;
+    // One drawing surface per thread, reused while the size stays: a fresh 2 MB buffer per
+    // frame costs a page fault per 4 kB (about a third of an empty frame's time).
+    SURFACE.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        if slot.as_ref().is_none_or(|p| p.width() != width || p.height() != height) {
+            *slot = Some(Pixmap::new(width, height).ok_or("cannot allocate the frame")?);
+        }
+        let pixmap = slot.as_mut().expect("just set");
+        draw(scene, pixmap);
+        Ok(rgba_to_rgb(pixmap.data()))
+    })
+}
+
+thread_local! {
+    static SURFACE: std::cell::RefCell<Option<Pixmap>> = const { std::cell::RefCell::new(None) };
+}
+
+fn draw(scene: &Scene, pixmap: &mut Pixmap) {
+    let (width, height) = (pixmap.width(), pixmap.height());
     pixmap.fill(colour(OUTSIDE, 255));
     let view = View::new(scene.border, width, height);
-    let mut canvas = Canvas { pixmap: &mut pixmap, view };
+    let mut canvas = Canvas { pixmap, view };
 
     canvas.arena(scene.border);
     for (k, trail) in scene.trails.iter().enumerate() {
-        canvas.polyline(trail, agent_colour(scene, k), 150, 1.5);
+        // 1 px lines take tiny-skia's anti-aliased hairline path, several times cheaper
+        // than its stroker (profiled: trails were a quarter of a frame at width 1.5).
+        canvas.polyline(trail, agent_colour(scene, k), 150, 1.0);
     }
     if scene.sense_radius > 0.0 {
         for (k, p) in all_poses(scene).enumerate() {
@@ -158,12 +178,25 @@ pub fn render(scene: &Scene, width: u32, height: u32) -> Result<Vec<u8>, String>
     if let Some(step) = scene.step {
         canvas.number(step, 4.0, 4.0, (height as f32 / 100.0).clamp(1.0, 4.0));
     }
+}
 
-    let mut rgb = Vec::with_capacity((width * height * 3) as usize);
-    for px in pixmap.data().chunks_exact(4) {
-        rgb.extend_from_slice(&px[..3]); // the background is opaque: premultiplied = straight
+/// Drops every fourth byte (the background is opaque, so premultiplied RGBA = straight RGBA).
+/// Four pixels at a time as 32-bit words: 16 bytes in, 12 out (2.5× faster than per pixel).
+fn rgba_to_rgb(rgba: &[u8]) -> Vec<u8> {
+    let mut rgb = vec![0u8; rgba.len() / 4 * 3];
+    let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    let mut out = rgb.chunks_exact_mut(12);
+    let mut src = rgba.chunks_exact(16);
+    for (d, s) in (&mut out).zip(&mut src) {
+        let (p0, p1, p2, p3) = (word(&s[0..4]), word(&s[4..8]), word(&s[8..12]), word(&s[12..16]));
+        d[0..4].copy_from_slice(&((p0 & 0x00ff_ffff) | (p1 << 24)).to_le_bytes());
+        d[4..8].copy_from_slice(&(((p1 >> 8) & 0xffff) | (p2 << 16)).to_le_bytes());
+        d[8..12].copy_from_slice(&(((p2 >> 16) & 0xff) | (p3 << 8)).to_le_bytes());
     }
-    Ok(rgb)
+    for (d, s) in out.into_remainder().chunks_exact_mut(3).zip(src.remainder().chunks_exact(4)) {
+        d.copy_from_slice(&s[..3]);
+    }
+    rgb
 }
 
 /// The triangle's centroid for pose `p` and body height `h` — where a test finds the colour.
@@ -225,8 +258,14 @@ struct Canvas<'a> {
 
 impl Canvas<'_> {
     fn fill(&mut self, pb: PathBuilder, c: Rgb, alpha: u8) {
+        self.fill_with(pb, c, alpha, true);
+    }
+
+    fn fill_with(&mut self, pb: PathBuilder, c: Rgb, alpha: u8, anti_alias: bool) {
         if let Some(path) = pb.finish() {
-            self.pixmap.fill_path(&path, &paint(c, alpha), FillRule::EvenOdd, Transform::identity(), None);
+            let mut p = paint(c, alpha);
+            p.anti_alias = anti_alias;
+            self.pixmap.fill_path(&path, &p, FillRule::EvenOdd, Transform::identity(), None);
         }
     }
 
@@ -240,7 +279,9 @@ impl Canvas<'_> {
     fn arena(&mut self, [x0, y0, x1, y1]: [f64; 4]) {
         let (a, b) = (self.view.px([x0, y1]), self.view.px([x1, y0]));
         if let Some(rect) = Rect::from_ltrb(a.0, a.1, b.0, b.1) {
-            self.pixmap.fill_rect(rect, &paint(BACKGROUND, 255), Transform::identity(), None);
+            let mut inside = paint(BACKGROUND, 255);
+            inside.anti_alias = false; // axis-aligned, and the border line covers its edges
+            self.pixmap.fill_rect(rect, &inside, Transform::identity(), None);
             let mut pb = PathBuilder::new();
             pb.push_rect(rect);
             self.stroke(pb, [0, 0, 0], 255, 2.0);
@@ -272,8 +313,10 @@ impl Canvas<'_> {
         let (fill, edge) = if ob.moving { (MOVING_OBSTACLE, [110, 70, 35]) } else { (STATIC_OBSTACLE, [40, 40, 40]) };
         let path = || if ob.kind == "circle" { self.circle_path(ob.center, ob.radius) } else { self.polygon_path(ob.vertices()) };
         let (a, b) = (path(), path());
-        self.fill(a, fill, 255);
-        self.stroke(b, edge, 255, if ob.moving { 2.0 } else { 1.0 });
+        // Aliased fill, anti-aliased 1 px outline over its edge: looks anti-aliased and costs
+        // half of an anti-aliased fill (obstacles had been a third of a frame).
+        self.fill_with(a, fill, 255, false);
+        self.stroke(b, edge, 255, 1.0);
     }
 
     fn circle_outline(&mut self, center: [f64; 2], radius: f64, c: Rgb, alpha: u8, width: f32) {
@@ -404,6 +447,15 @@ mod tests {
         assert_eq!(pixel(&frame, w, view.px([-3.0, 2.7])), MOVING_OBSTACLE);
         assert_eq!(pixel(&frame, w, view.px([0.0, -8.0])), BACKGROUND);
         assert_eq!(pixel(&frame, w, (2.0, h as f32 / 2.0)), OUTSIDE, "the 300x200 frame pads a square arena left and right");
+    }
+
+    #[test]
+    fn rgba_to_rgb_drops_the_alpha_bytes_of_every_pixel() {
+        for pixels in [0usize, 1, 3, 4, 5, 9] {
+            let rgba: Vec<u8> = (0..4 * pixels).map(|i| (i * 7 % 251) as u8).collect();
+            let want: Vec<u8> = rgba.chunks_exact(4).flat_map(|p| p[..3].to_vec()).collect();
+            assert_eq!(rgba_to_rgb(&rgba), want, "{pixels} pixels");
+        }
     }
 
     #[test]
