@@ -70,3 +70,16 @@ def test_learning_benchmark_runs_and_compares_with_mpe2() -> None:
         assert r[key]["env_steps_per_second"] > 0 and 0 < r[key]["native_share_of_step"]
     assert r["parallel_env"]["env_steps_per_second"] > 0
     assert r["ratios"]["parallel_env / mpe2"] > 0
+
+
+RENDER = SCRIPT.with_name("render.py")
+
+
+@pytest.mark.skipif(not HAVE_MPE2, reason="mpe2 is not installed")
+def test_render_benchmark_runs_and_compares_with_mpe2() -> None:
+    done = subprocess.run([sys.executable, str(RENDER), "--quick", "--json"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    r = json.loads(done.stdout)
+    assert r["wolfpack"]["shape"] == r["mpe2"]["shape"] == [700, 700, 3], "same resolution on both sides"
+    assert r["wolfpack"]["frames_per_second"] > 0 and r["mpe2"]["frames_per_second"] > 0
+    assert r["ratio_vs_mpe2"] > 0 and r["video"]["frames"] > 1
