@@ -162,7 +162,10 @@ def build_parser() -> argparse.ArgumentParser:
                             description=REPLAY_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     replay.add_argument("episode", metavar="EPISODE_DIR", help="an episode folder of 'wolfpack hunt --out' (holding trajectory.npz), or the .npz itself")
     replay.add_argument("--out", metavar="DIR", help="where to write episode.mp4, trajectory.png, curves.png and interaction.png (default: EPISODE_DIR)")
-    replay.add_argument("--no-video", action="store_true", help="plots only")
+    replay.add_argument("--no-video", action="store_true", help="no episode.mp4")
+    replay.add_argument("--no-plots", action="store_true", help="no trajectory.png, curves.png, interaction.png")
+    replay.add_argument("--frames", metavar="T", type=_int_at_least(0), nargs="+", default=[],
+                        help="also write the frames of these steps as frame_TTT.png (a step past the end: the last frame)")
     replay.add_argument("--size", metavar="PX", type=_int_at_least(16), default=512, help="video frame width and height in pixels (default: 512)")
     replay.add_argument("--trail", metavar="STEPS", type=_int_at_least(0), default=40, help="trail length in steps (default: 40)")
     replay.set_defaults(func=cmd_replay)
@@ -348,6 +351,7 @@ examples:
   wolfpack hunt --episodes 3 --out runs/demo
   wolfpack replay runs/demo/episode_000
   wolfpack replay runs/demo/episode_001/trajectory.npz --out /tmp/ep1 --size 768
+  wolfpack replay runs/demo/episode_000 --no-video --no-plots --frames 0 100 --out /tmp/pics
 """
 
 
@@ -389,15 +393,26 @@ def cmd_replay(args: argparse.Namespace, argv: Sequence[str]) -> None:
     out = Path(args.out) if args.out else folder
     out.mkdir(parents=True, exist_ok=True)
     label = f"{folder.name} (replay)"
-    plotting.plot_trajectory(arrays, out / "trajectory.png", label=label)
-    plotting.plot_curves(arrays, out / "curves.png", label=label)
-    plotting.plot_interaction(arrays, out / "interaction.png", label=label)
-    written = ["trajectory.png", "curves.png", "interaction.png"]
+    written = []
+    if not args.no_plots:
+        plotting.plot_trajectory(arrays, out / "trajectory.png", label=label)
+        plotting.plot_curves(arrays, out / "curves.png", label=label)
+        plotting.plot_interaction(arrays, out / "interaction.png", label=label)
+        written += ["trajectory.png", "curves.png", "interaction.png"]
+    options = render.FrameOptions(width=args.size, height=args.size, trail=args.trail)
     if not args.no_video:
-        options = render.FrameOptions(width=args.size, height=args.size, trail=args.trail)
         frames = render.write_video(render.trajectory_frames(arrays, params, options), out / "episode.mp4")
         written.insert(0, f"episode.mp4 ({frames} frames)")
-    print(f"wrote {', '.join(written)} to {out}")
+    if args.frames:
+        import imageio.v3 as iio
+
+        last = len(arrays["wolves"]) - 1
+        wanted = {min(t, last) for t in args.frames}
+        for t, frame in enumerate(render.trajectory_frames(arrays, params, options)):
+            if t in wanted:
+                iio.imwrite(out / f"frame_{t:03d}.png", frame)
+                written.append(f"frame_{t:03d}.png")
+    print(f"wrote {', '.join(written) or 'nothing'} to {out}")
 
 
 # --- bench --------------------------------------------------------------------------------

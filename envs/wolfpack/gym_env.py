@@ -8,7 +8,9 @@ docstring). The wolves follow ``policies.wolves`` (default ``seed000``). Needs
     import gymnasium, wolfpack
     env = gymnasium.make("wolfpack/Escape-v0")            # or ..., params="my.yaml", world__wolves=4
 
-Arguments: ``params`` (None, YAML path or dict), ``render_mode`` (None), ``seed`` (the base
+Arguments: ``params`` (None, YAML path or dict), ``render_mode`` (None, ``"rgb_array"`` or
+``"human"``, as the ParallelEnv's), ``render_options`` (dict: width, height, trail, sensing,
+links), ``seed`` (the base
 seed when ``reset`` gets none), ``**overrides`` (``world__wolves=4`` or
 ``**{"world.wolves": 4}``). ``reset(options={"layout": LAYOUT})`` starts from an explicit
 state. ``env.unwrapped.world_state()`` / ``env.unwrapped.expert_actions()`` as in the

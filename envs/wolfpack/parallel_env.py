@@ -66,13 +66,20 @@ Termination / Truncation
     uncaptured target; target: to the nearest wolf).
 
 Arguments
-    ``parallel_env(params=None, *, learners="wolves", render_mode=None, seed=0, **overrides)``:
+    ``parallel_env(params=None, *, learners="wolves", render_mode=None, render_options=None, seed=0, **overrides)``:
     ``params`` is None (the documented scenario), a YAML path or a dict; overrides are dotted
     keys (``**{"world.wolves": 8}``) or ``world__wolves=8``. ``reset(seed=None, options=None)``;
     ``options={"layout": LAYOUT}`` starts from an explicit state (API.md) with this env's agent
     counts (a polygon with ``"moving": false`` still rotates in place, as SPEC §1.3's static
     polygons do; it does not translate). ``env.unwrapped.world_state()`` and
     ``env.unwrapped.expert_actions()`` as API.md.
+
+Rendering
+    ``render_mode``: None, ``"rgb_array"`` (``render()`` returns the current frame, uint8
+    [H, W, 3], drawn in Rust without any display server) or ``"human"`` (a matplotlib window;
+    without a display a warning and nothing shown). ``render_options``: ``width``, ``height``
+    (pixels, default 512), ``trail`` (steps, default 40), ``sensing`` (sensing circles),
+    ``links`` (interaction links); what a frame shows: :mod:`wolfpack.render`.
 
 Version History
     v0: first release.
