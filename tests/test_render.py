@@ -200,3 +200,17 @@ def test_replay_of_a_corrupt_or_foreign_directory(tmp_path, capsys):
         assert done.value.code == 2, name
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err, err
+
+
+def test_replay_frames_are_pngs_of_the_replayed_frames(tmp_path):
+    import imageio.v3 as iio
+
+    cli_main(["hunt", "--episodes", "1", "--seed", "2", "--out", str(tmp_path / "run"), "--plots", "0"])
+    episode = tmp_path / "run" / "episode_000"
+    cli_main(["replay", str(episode), "--no-video", "--no-plots", "--frames", "0", "9999", "--out", str(tmp_path / "pics")])
+    arrays = wolfpack.logs.load_trajectory(episode / "trajectory.npz")
+    last = len(arrays["wolves"]) - 1
+    assert sorted(p.name for p in (tmp_path / "pics").iterdir()) == ["frame_000.png", f"frame_{last:03d}.png"]
+    frames = list(render.trajectory_frames(arrays, wolfpack.load_params()))
+    assert np.array_equal(iio.imread(tmp_path / "pics" / "frame_000.png"), frames[0])
+    assert np.array_equal(iio.imread(tmp_path / "pics" / f"frame_{last:03d}.png"), frames[-1])
