@@ -214,3 +214,19 @@ def test_replay_frames_are_pngs_of_the_replayed_frames(tmp_path):
     frames = list(render.trajectory_frames(arrays, wolfpack.load_params()))
     assert np.array_equal(iio.imread(tmp_path / "pics" / "frame_000.png"), frames[0])
     assert np.array_equal(iio.imread(tmp_path / "pics" / f"frame_{last:03d}.png"), frames[-1])
+
+
+def test_human_mode_without_a_window_backend_warns_and_returns_none(monkeypatch):
+    """A DISPLAY that matplotlib cannot use (here: a display variable with no X server behind
+    it, so matplotlib stays on Agg) must not fail; it warns once."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    monkeypatch.setenv("DISPLAY", ":99")
+    env = wolfpack.parallel_env(render_mode="human")
+    env.reset(seed=0)
+    with pytest.warns(UserWarning, match="no window backend"):
+        assert env.render() is None
+    env.step(env.unwrapped.expert_actions())
+    assert env.render() is None  # once only: no second warning needed
+    env.close()

@@ -148,6 +148,8 @@ def trajectory_frames(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any
 
 #: Render modes of the envs.
 RENDER_MODES = ["human", "rgb_array"]
+#: matplotlib backends that draw to files only.
+NON_INTERACTIVE_BACKENDS = {"agg", "pdf", "ps", "svg", "pgf", "cairo", "template"}
 
 
 def display_available() -> bool:
@@ -190,15 +192,24 @@ class EnvRendering:
         self._show(frame)
         return None
 
+    def _warn_once(self, message: str) -> None:
+        if not self._warned:
+            import warnings
+
+            warnings.warn(message, stacklevel=4)
+            self._warned = True
+
     def _show(self, frame: np.ndarray) -> None:
         if not display_available():
-            if not self._warned:
-                import warnings
-
-                warnings.warn("render_mode='human': no display (DISPLAY is not set), nothing is shown; use render_mode='rgb_array' on a headless machine", stacklevel=3)
-                self._warned = True
+            self._warn_once("render_mode='human': no display (DISPLAY is not set), nothing is shown; use render_mode='rgb_array' on a headless machine")
             return
         import matplotlib.pyplot as plt
+
+        if plt.get_backend().lower() in NON_INTERACTIVE_BACKENDS:
+            # matplotlib could not start a GUI backend (no reachable X server, no tkinter/Qt)
+            self._warn_once(f"render_mode='human': matplotlib has no window backend here (it chose {plt.get_backend()!r}), nothing is shown; "
+                            "set MPLBACKEND=TkAgg or QtAgg, or use render_mode='rgb_array'")
+            return
 
         if self._window is None:
             fig, ax = plt.subplots(figsize=(frame.shape[1] / 100, frame.shape[0] / 100), dpi=100)
