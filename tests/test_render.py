@@ -230,3 +230,35 @@ def test_human_mode_without_a_window_backend_warns_and_returns_none(monkeypatch)
     env.step(env.unwrapped.expert_actions())
     assert env.render() is None  # once only: no second warning needed
     env.close()
+
+
+@pytest.mark.skipif(not __import__("shutil").which("Xvfb"), reason="Xvfb (a virtual X server) is not installed")
+def test_human_mode_opens_a_window_on_a_display(tmp_path):
+    """Under a virtual X server, human mode draws into a real matplotlib window (TkAgg/QtAgg)."""
+    display = ":%d" % (90 + os.getpid() % 9)
+    server = subprocess.Popen(["Xvfb", display, "-screen", "0", "800x600x24"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        code = (
+            "import warnings, wolfpack\n"
+            "warnings.simplefilter('error')\n"
+            "env = wolfpack.parallel_env(render_mode='human'); env.reset(seed=0)\n"
+            "for _ in range(3):\n"
+            "    env.step(env.unwrapped.expert_actions()); assert env.render() is None\n"
+            "import matplotlib.pyplot as plt\n"
+            "assert plt.get_backend().lower() not in ('agg',), plt.get_backend()\n"
+            "assert plt.get_fignums(), 'no window'\n"
+            "env.close(); assert not plt.get_fignums()\n"
+            "print('ok')\n"
+        )
+        env = {**os.environ, "DISPLAY": display}
+        env.pop("MPLBACKEND", None)
+        import time
+
+        time.sleep(1.0)  # let the server come up
+        done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+        if "TclError" in done.stderr or "no window backend" in done.stderr:
+            pytest.skip(f"no GUI toolkit for matplotlib here: {done.stderr.strip().splitlines()[-1]}")
+        assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
