@@ -114,7 +114,16 @@ def test_out_that_is_a_file_is_rejected_and_left_alone(cli, tmp_path):
 
 
 def test_unimplemented_wolf_law_is_named(cli):
-    assert_clean_failure(cli("hunt", "--wolves", "bvc", "--episodes", "1"), "policies.wolves: the 'bvc' law")
+    assert_clean_failure(cli("hunt", "--wolves", "formation", "--episodes", "1"), "policies.wolves: the 'formation' law")
+
+
+def test_bvc_hunts_and_its_bad_parameters_are_named(cli):
+    done = cli("hunt", "--wolves", "bvc", "--episodes", "3", "--json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["episodes"] == 3
+    assert_clean_failure(cli("hunt", "--wolves", "bvc", "--episodes", "1", "--set", "bvc.safety_radius=-1"), "bvc.safety_radius")
+    assert_clean_failure(cli("hunt", "--wolves", "bvc", "--episodes", "1", "--set", "bvc.assignment_period=0"), "bvc.assignment_period")
+    assert_clean_failure(cli("hunt", "--wolves", "bvc", "--episodes", "1", "--set", "bvc.speed=2"), "bvc.speed")
 
 
 @pytest.mark.parametrize(

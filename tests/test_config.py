@@ -120,7 +120,13 @@ BAD_OVERRIDES = [
     ({"capture.rule": "surround"}, "capture.rule"),
     ({"policies.wolves": "lion"}, "policies.wolves"),  # unknown policy names
     ({"policies.targets": "flee"}, "policies.targets"),
-    ({"policies.wolves": "bvc"}, "policies.wolves"),  # specified, not implemented yet
+    ({"policies.wolves": "formation"}, "policies.wolves"),  # specified, not implemented yet
+    ({"bvc.safety_radius": -0.1}, "bvc.safety_radius"),
+    ({"bvc.d_min": float("nan")}, "bvc.d_min"),
+    ({"bvc.assignment_period": 0}, "bvc.assignment_period"),
+    ({"bvc.disc_sides": 4}, "bvc.disc_sides"),
+    ({"bvc.radius": 0.0}, "bvc.radius"),
+    ({"bvc.unknown": 1}, "bvc.unknown"),
 ]
 
 

@@ -21,6 +21,7 @@ pub struct Params {
     pub capture: CaptureParams,
     pub policies: PolicyParams,
     pub seed000: Seed000Params,
+    pub bvc: BvcParams,
     pub avoidance: AvoidanceParams,
     pub escape: EscapeParams,
     /// The learning interface (issue 3): action mode and observations.
@@ -279,6 +280,30 @@ pub struct Seed000Params {
     pub partner_half_angle: f64,
     /// D_DANGER_W: a partner this close and ahead triggers close-partner steering.
     pub partner_danger: f64,
+}
+
+/// The bvc hunting law (SPEC §6): buffered Voronoi cells + Hungarian assignment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BvcParams {
+    /// r_h: radius of the ring of hunting points around the target (m); below the capture
+    /// distance so that wolves on their points count as capturing.
+    pub radius: f64,
+    /// r_s: safety radius (m) by which every cell boundary is pushed towards its wolf.
+    pub safety_radius: f64,
+    /// d_min: within this distance (m) of an obstacle or another wolf a wolf heads for the
+    /// closest point of its cell; farther away, straight for its hunting point.
+    pub d_min: f64,
+    /// Steps between re-solving the assignment (1: every step).
+    pub assignment_period: u32,
+    /// Sides of the regular polygon inscribed in the sensing disc that bounds every cell.
+    pub disc_sides: usize,
+}
+
+impl Default for BvcParams {
+    fn default() -> Self {
+        Self { radius: 0.6, safety_radius: 0.2, d_min: 1.0, assignment_period: 1, disc_sides: 32 }
+    }
 }
 
 impl Default for Seed000Params {
@@ -634,6 +659,16 @@ impl Params {
         non_negative("seed000.partner_range", s.partner_range)?;
         non_negative("seed000.partner_half_angle", s.partner_half_angle)?;
         non_negative("seed000.partner_danger", s.partner_danger)?;
+        let b = &self.bvc;
+        positive("bvc.radius", b.radius)?;
+        non_negative("bvc.safety_radius", b.safety_radius)?;
+        non_negative("bvc.d_min", b.d_min)?;
+        if b.assignment_period < 1 {
+            return Err(bad("bvc.assignment_period", format!("must be an integer >= 1, got {}", b.assignment_period)));
+        }
+        if b.disc_sides < 8 || b.disc_sides > 1024 {
+            return Err(bad("bvc.disc_sides", format!("must be an integer in 8..=1024, got {}", b.disc_sides)));
+        }
 
         let a = &self.avoidance;
         positive("avoidance.obstacle_range", a.obstacle_range)?;
@@ -672,15 +707,10 @@ impl Params {
             finite(&format!("rewards.{k}"), x)?;
         }
 
-        if self.policies.wolves != WolfPolicy::Seed000 {
-            let name = match self.policies.wolves {
-                WolfPolicy::Bvc => "bvc",
-                WolfPolicy::Formation => "formation",
-                WolfPolicy::Seed000 => unreachable!(),
-            };
+        if self.policies.wolves == WolfPolicy::Formation {
             return Err(bad(
                 "policies.wolves",
-                format!("the '{name}' law is specified (SPEC.md) but not implemented in this version; use 'seed000'"),
+                "the 'formation' law is specified (SPEC.md) but not implemented in this version; use 'seed000' or 'bvc'",
             ));
         }
         Ok(())
@@ -727,7 +757,12 @@ mod tests {
             (r#"{"capture": {"count": 6}}"#, "capture.count"),
             (r#"{"agents": {"wolf": {"v_max": -1}}}"#, "agents.wolf.v_max"),
             (r#"{"obstacles": {"circle_radius": [0, 1]}}"#, "obstacles.circle_radius"),
-            (r#"{"policies": {"wolves": "bvc"}}"#, "policies.wolves"),
+            (r#"{"policies": {"wolves": "formation"}}"#, "policies.wolves"),
+            (r#"{"bvc": {"safety_radius": -0.1}}"#, "bvc.safety_radius"),
+            (r#"{"bvc": {"assignment_period": 0}}"#, "bvc.assignment_period"),
+            (r#"{"bvc": {"disc_sides": 3}}"#, "bvc.disc_sides"),
+            (r#"{"bvc": {"radius": 0}}"#, "bvc.radius"),
+            (r#"{"bvc": {"speed": 1}}"#, "bvc.speed"),
         ] {
             let e = parse(doc).unwrap_err().to_string();
             assert!(e.starts_with(key), "{doc}: {e}");

@@ -6,9 +6,11 @@
 //! | [`saturator`] | §2 | everyone: desired velocity → (v, ω) |
 //! | [`seed000`] | §3 | wolves: attraction + tangential repulsion |
 //! | [`avoidance`] | §4 | wolves and targets: heading-based obstacle avoidance |
+//! | [`bvc`] | §6 | wolves: buffered Voronoi cells + Hungarian assignment of hunting points |
 //! | [`escape`] | §5 | targets: `escape`, `random`, `still` |
 
 pub mod avoidance;
+pub mod bvc;
 pub mod escape;
 pub mod saturator;
 pub mod seed000;
@@ -49,8 +51,9 @@ pub struct Snapshot<'a> {
 pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
     match snap.params.policies.wolves {
         WolfPolicy::Seed000 => seed000::wolf_desired(i, snap, mem, row),
-        // Rejected by `Params::validate` until they are implemented.
-        WolfPolicy::Bvc | WolfPolicy::Formation => (0.0, snap.wolves[i].theta),
+        WolfPolicy::Bvc => bvc::wolf_desired(i, snap, mem, row),
+        // Rejected by `Params::validate` until it is implemented.
+        WolfPolicy::Formation => (0.0, snap.wolves[i].theta),
     }
 }
 
@@ -82,6 +85,10 @@ pub struct WolfMemory {
     /// The previous step's attraction vector ν₁ (zero before the first step).
     pub last_attraction: Vec2,
     pub danger: DangerMemory,
+    /// bvc: the target position last known to the pack (None before any sighting).
+    pub bvc_target: Option<Vec2>,
+    /// bvc: the hunting point assigned at the last assignment.
+    pub bvc_point: Option<usize>,
 }
 
 /// What the scripted target laws carry from one step to the next for one target.
