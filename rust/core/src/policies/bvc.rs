@@ -350,7 +350,8 @@ mod tests {
         #[test]
         fn cells_contain_their_wolf_and_exclude_buffers_obstacles_and_each_other(
             pts in prop::collection::vec((-9.0..9.0f64, -9.0..9.0f64), 2..7),
-            circles in prop::collection::vec((-9.0..9.0f64, -9.0..9.0f64, 0.2..1.2f64), 0..5),
+            circles in prop::collection::vec((-9.0..9.0f64, -9.0..9.0f64, 0.2..1.2f64), 0..4),
+            polygons in prop::collection::vec((-9.0..9.0f64, -9.0..9.0f64, any::<u64>()), 0..4),
         ) {
             let rs = 0.2;
             let wolves: Vec<Vec2> = pts.iter().map(|&(x, y)| v(x, y)).collect();
@@ -359,7 +360,13 @@ mod tests {
                     prop_assume!((wolves[a] - wolves[b]).norm() > 2.0 * rs + 0.1);
                 }
             }
-            let obstacles: Vec<Obstacle> = circles.iter().map(|&(x, y, r)| Obstacle::circle(v(x, y), r, false)).collect();
+            let mut obstacles: Vec<Obstacle> = circles.iter().map(|&(x, y, r)| Obstacle::circle(v(x, y), r, false)).collect();
+            let shapes = crate::config::ObstacleParams::default();
+            for &(x, y, seed) in &polygons {
+                // the world's own random (generally non-convex) polygons
+                let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(seed);
+                obstacles.push(Obstacle::random_polygon(&mut rng, v(x, y), false, &shapes));
+            }
             for o in &obstacles {
                 for w in &wolves {
                     prop_assume!(o.distance(*w) > 2.0 * rs + 0.1);
@@ -372,16 +379,30 @@ mod tests {
                 prop_assert!(inside(c, wolves[i], 1e-9), "wolf {} outside its cell", i);
                 for (j, w) in wolves.iter().enumerate() {
                     if j != i {
+                        // beyond the bisector plus the buffer: half the distance plus r_s
                         let (q, _) = closest_point(c, *w);
-                        prop_assert!((q - w).norm() >= rs - 1e-9, "cell {} within r_s of wolf {}", i, j);
+                        let half = (wolves[i] - w).norm() / 2.0;
+                        prop_assert!((q - w).norm() >= half + rs - 1e-9, "cell {} within r_s of the bisector with wolf {}", i, j);
                     }
                 }
                 for o in &obstacles {
-                    // the cell's closest point to the circle's centre: outside the circle, and
-                    // r_s clear of it when the wolf senses the obstacle
-                    let (q, _) = closest_point(c, o.center);
+                    // r_s clear of every obstacle the wolf senses, clear of the others
                     let clearance = if o.distance(wolves[i]) <= 3.0 { rs } else { 0.0 };
-                    prop_assert!((q - o.center).norm() >= o.radius + clearance - 1e-9, "cell {} reaches into an obstacle", i);
+                    if o.is_polygon() {
+                        for corner in &o.vertices {
+                            let (q, _) = closest_point(c, *corner);
+                            prop_assert!((q - corner).norm() >= clearance - 1e-9, "cell {} reaches a polygon's corner", i);
+                        }
+                        for x in c {
+                            prop_assert!(o.distance(*x) >= clearance - 1e-9, "a corner of cell {} is in a polygon", i);
+                        }
+                    } else {
+                        // a sensed circle: beyond the max-margin line (half the wolf's surface
+                        // distance) plus the buffer r_s
+                        let margin = if clearance > 0.0 { o.distance(wolves[i]) / 2.0 + rs } else { 0.0 };
+                        let (q, _) = closest_point(c, o.center);
+                        prop_assert!((q - o.center).norm() >= o.radius + margin - 1e-9, "cell {} reaches into a circle or its buffer", i);
+                    }
                 }
                 for (j, other) in cells.iter().enumerate() {
                     if j != i {
