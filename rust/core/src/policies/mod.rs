@@ -7,11 +7,13 @@
 //! | [`seed000`] | §3 | wolves: attraction + tangential repulsion |
 //! | [`avoidance`] | §4 | wolves and targets: heading-based obstacle avoidance |
 //! | [`bvc`] | §6 | wolves: buffered Voronoi cells + Hungarian assignment of hunting points |
+//! | [`formation`] | §7 | wolves: obstacle graph and the virtual leader's path (the control law: not yet) |
 //! | [`escape`] | §5 | targets: `escape`, `random`, `still` |
 
 pub mod avoidance;
 pub mod bvc;
 pub mod escape;
+pub mod formation;
 pub mod saturator;
 pub mod seed000;
 
