@@ -113,8 +113,12 @@ def test_out_that_is_a_file_is_rejected_and_left_alone(cli, tmp_path):
     assert path.read_text() == "keep me"
 
 
-def test_unimplemented_wolf_law_is_named(cli):
-    assert_clean_failure(cli("hunt", "--wolves", "formation", "--episodes", "1"), "policies.wolves: the 'formation' law")
+def test_formation_hunts_and_its_bad_parameters_are_named(cli):
+    done = cli("hunt", "--wolves", "formation", "--episodes", "2", "--json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["episodes"] == 2
+    assert_clean_failure(cli("hunt", "--wolves", "formation", "--episodes", "1", "--set", "formation.bump_delta=1.5"), "formation.bump_delta")
+    assert_clean_failure(cli("hunt", "--wolves", "formation", "--episodes", "1", "--set", "formation.gain=2"), "formation.gain")
 
 
 def test_bvc_hunts_and_its_bad_parameters_are_named(cli):

@@ -120,7 +120,11 @@ BAD_OVERRIDES = [
     ({"capture.rule": "surround"}, "capture.rule"),
     ({"policies.wolves": "lion"}, "policies.wolves"),  # unknown policy names
     ({"policies.targets": "flee"}, "policies.targets"),
-    ({"policies.wolves": "formation"}, "policies.wolves"),  # specified, not implemented yet
+    ({"formation.spacing": 0.0}, "formation.spacing"),
+    ({"formation.bump_delta": 0.0}, "formation.bump_delta"),
+    ({"formation.ring_points": 3}, "formation.ring_points"),
+    ({"formation.alpha": -1.0}, "formation.alpha"),
+    ({"formation.unknown": 1}, "formation.unknown"),
     ({"bvc.safety_radius": -0.1}, "bvc.safety_radius"),
     ({"bvc.d_min": float("nan")}, "bvc.d_min"),
     ({"bvc.assignment_period": 0}, "bvc.assignment_period"),

@@ -96,9 +96,9 @@ def test_evaluate_scripted_row_equals_wolfpack_hunt_exactly(capsys):
     for key in ("episodes", "capture_rate", "collision_rate", "timeout_rate", "median_capture_steps", "mean_energy"):
         assert row[key] == hunt[key], key
     pairs = {(r["wolves"], r["targets"]) for r in doc["rows"]}
-    # every implemented wolf law against every target law; formation is not implemented yet
-    assert pairs == {(w, t) for w in ("seed000", "bvc") for t in ("escape", "random", "still")}
-    assert any("formation" in s for s in doc["skipped"])
+    # every wolf law against every target law
+    assert pairs == {(w, t) for w in ("seed000", "bvc", "formation") for t in ("escape", "random", "still")}
+    assert doc["skipped"] == []
     bvc = next(r for r in doc["rows"] if r["wolves"] == "bvc" and r["targets"] == "escape")
     cli.main(["hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "7", "--json"])
     assert bvc["capture_rate"] == json.loads(capsys.readouterr().out)["capture_rate"]

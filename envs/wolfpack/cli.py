@@ -41,8 +41,9 @@ The scenario (params.yaml, SPEC.md §1): N unicycle wolves hunt M targets in a r
 arena with static and moving circles and rotating, drifting irregular polygons. Default: a
 20 m x 20 m arena, Ts = 0.1 s, at most 300 steps, 5 wolves, 1 target, 12 obstacles.
 Wolf laws (--wolves): seed000 (attraction + tangential repulsion + heading-based avoidance,
-SPEC §3-4) or bvc (buffered Voronoi cells + Hungarian assignment of hunting points, SPEC §6;
-parameters bvc.*); formation is specified but not implemented yet. Target laws (--targets):
+SPEC §3-4), bvc (buffered Voronoi cells + Hungarian assignment of hunting points, SPEC §6;
+parameters bvc.*) or formation (obstacle graph, virtual leader on the shortest path,
+potential-field formation, SPEC §7; parameters formation.*). Target laws (--targets):
 escape, random, still. Each episode ends as
   captured   every target has capture.count wolves (default 4) within capture.distance (0.8 m)
   collision  a wolf touched an obstacle or another wolf

@@ -22,6 +22,7 @@ pub struct Params {
     pub policies: PolicyParams,
     pub seed000: Seed000Params,
     pub bvc: BvcParams,
+    pub formation: FormationParams,
     pub avoidance: AvoidanceParams,
     pub escape: EscapeParams,
     /// The learning interface (issue 3): action mode and observations.
@@ -303,6 +304,64 @@ pub struct BvcParams {
 impl Default for BvcParams {
     fn default() -> Self {
         Self { radius: 0.6, safety_radius: 0.2, d_min: 1.0, assignment_period: 1, disc_sides: 32 }
+    }
+}
+
+/// The formation law (SPEC §7): obstacle graph, virtual leader, potential-field formation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FormationParams {
+    /// r_h: radius of the ring of formation slots around the virtual leader (m).
+    pub radius: f64,
+    /// d: desired spacing between neighbouring wolves (m); the spacing potential's minimum.
+    pub spacing: f64,
+    /// r: communication radius of the adjacency A (m).
+    pub comm_radius: f64,
+    /// r′: detection radius of the adjacency B (surface distance, m).
+    pub detect_radius: f64,
+    /// α: gain of tracking the slot around the virtual leader.
+    pub alpha: f64,
+    /// β: velocity damping near obstacles.
+    pub beta: f64,
+    /// γ: velocity-matching gain (with partners and with the leader).
+    pub gamma: f64,
+    /// k_α: strength of the spacing potential.
+    pub k_spacing: f64,
+    /// k_β: strength of the obstacle potential.
+    pub k_obstacle: f64,
+    /// δ of the bump function h.
+    pub bump_delta: f64,
+    /// How far ahead of the pack's centroid the virtual leader runs along its path (m).
+    pub lead: f64,
+    /// The virtual leader's speed along its path (m/s).
+    pub leader_speed: f64,
+    /// The wolf's largest diameter: two obstacles closer than this (gap) form one structure.
+    pub wolf_diameter: f64,
+    /// Clearance the leader's path keeps from every obstacle's bounding disc (m).
+    pub clearance: f64,
+    /// Waypoints on the ring around each obstacle for the path search.
+    pub ring_points: usize,
+}
+
+impl Default for FormationParams {
+    fn default() -> Self {
+        Self {
+            radius: 0.6,
+            spacing: 0.7,
+            comm_radius: 1.0,
+            detect_radius: 1.0,
+            alpha: 4.0,
+            beta: 0.5,
+            gamma: 0.25,
+            k_spacing: 4.0,
+            k_obstacle: 4.0,
+            bump_delta: 0.2,
+            lead: 5.0,
+            leader_speed: 1.5,
+            wolf_diameter: 0.3,
+            clearance: 0.3,
+            ring_points: 12,
+        }
     }
 }
 
@@ -707,11 +766,27 @@ impl Params {
             finite(&format!("rewards.{k}"), x)?;
         }
 
-        if self.policies.wolves == WolfPolicy::Formation {
-            return Err(bad(
-                "policies.wolves",
-                "the 'formation' law is specified (SPEC.md) but not implemented in this version; use 'seed000' or 'bvc'",
-            ));
+        let f = &self.formation;
+        for (k, x) in [("radius", f.radius), ("spacing", f.spacing), ("comm_radius", f.comm_radius), ("detect_radius", f.detect_radius), ("lead", f.lead)] {
+            positive(&format!("formation.{k}"), x)?;
+        }
+        for (k, x) in [
+            ("alpha", f.alpha),
+            ("beta", f.beta),
+            ("gamma", f.gamma),
+            ("k_spacing", f.k_spacing),
+            ("k_obstacle", f.k_obstacle),
+            ("leader_speed", f.leader_speed),
+            ("wolf_diameter", f.wolf_diameter),
+            ("clearance", f.clearance),
+        ] {
+            non_negative(&format!("formation.{k}"), x)?;
+        }
+        if !(f.bump_delta > 0.0 && f.bump_delta < 1.0) {
+            return Err(bad("formation.bump_delta", format!("must lie in (0, 1), got {}", f.bump_delta)));
+        }
+        if f.ring_points < 4 || f.ring_points > 256 {
+            return Err(bad("formation.ring_points", format!("must be an integer in 4..=256, got {}", f.ring_points)));
         }
         Ok(())
     }
@@ -757,7 +832,9 @@ mod tests {
             (r#"{"capture": {"count": 6}}"#, "capture.count"),
             (r#"{"agents": {"wolf": {"v_max": -1}}}"#, "agents.wolf.v_max"),
             (r#"{"obstacles": {"circle_radius": [0, 1]}}"#, "obstacles.circle_radius"),
-            (r#"{"policies": {"wolves": "formation"}}"#, "policies.wolves"),
+            (r#"{"formation": {"bump_delta": 1.0}}"#, "formation.bump_delta"),
+            (r#"{"formation": {"ring_points": 2}}"#, "formation.ring_points"),
+            (r#"{"formation": {"spacing": 0}}"#, "formation.spacing"),
             (r#"{"bvc": {"safety_radius": -0.1}}"#, "bvc.safety_radius"),
             (r#"{"bvc": {"assignment_period": 0}}"#, "bvc.assignment_period"),
             (r#"{"bvc": {"disc_sides": 3}}"#, "bvc.disc_sides"),

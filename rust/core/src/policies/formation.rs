@@ -1,8 +1,7 @@
 //! The `formation` law (SPEC §7; source `002_1b59bc6eab955b77.txt`): obstacle graph,
 //! visibility path for a virtual leader, potential-field formation.
 //!
-//! This file holds the planning half so far (issue 7 is open; the control terms f_α, f_β,
-//! f_γ and the law's entry point come next):
+//! Planning:
 //!
 //! - [`obstacle_nodes`]: every obstacle is a node, its bounding disc (source step 13).
 //! - [`adjacency`]: two nodes are joined when a wolf cannot pass between them — centre
@@ -16,11 +15,35 @@
 //!   that the chord between neighbouring points stays outside it) whose segments cross no node;
 //!   the shortest is found exactly by Dijkstra's algorithm (`pathfinding`). It contains the
 //!   source's tangent polylines up to the ring's resolution and cannot cross a structure.
+//!
+//! Control (step 6), for wolf i with position q_i and velocity p_i (its unicycle velocity):
+//!
+//! - Virtual leader: the point `formation.lead` metres along the planned path from the pack's
+//!   centroid to the target (the target itself when nearer), moving at `formation.leader_speed`
+//!   along the path. It is a function of the snapshot (every wolf computes the same leader;
+//!   nothing is carried between steps), re-planned every step as the target moves.
+//! - Slots: wolf i's slot is q_r + r_h (cos(2πi/N), sin(2πi/N)), a ring of radius r_h around
+//!   the leader; on arrival the leader is the target and the ring encircles it.
+//! - u_i = f_α + f_β + f_γ with
+//!   f_α = −Σ_j a_ij [φ1(‖q_i − q_j‖) h(‖q_i − q_j‖ / r) (q_i − q_j) + γ (p_i − p_j)],
+//!   f_β = −Σ_k b_ik [φ2(s_ik) h(s_ik / r′) (q_i − q_ok) / ‖q_i − q_ok‖ + β p_i],
+//!   f_γ = −α [(q_i − q_slot) + γ (p_i − p_r)];
+//!   a_ij = 1 within the communication radius r, b_ik = 1 when obstacle k's surface is within
+//!   the detection radius r′ (s_ik: surface distance).
+//! - Potentials (the source shows them only as images; SPEC §7 asks for standard forms):
+//!   spacing φ1(z) = k_α (1 − d/z), the gradient of ½ k_α (z − d)² along q_i − q_j, so the
+//!   spacing potential has its minimum at the spacing d; obstacle φ2(s) = −k_β (1/s − 1/r′) / s²
+//!   (the classic repulsive potential ½ k_β (1/s − 1/r′)², zero at r′); bump h(x) = 1 on
+//!   [0, δ), ½ (1 + cos(π (x − δ)/(1 − δ))) on [δ, 1], 0 beyond (Olfati-Saber 2006).
+//! - Double integrator: the desired velocity is p_i + u_i Ts (norm capped at v_max), then the
+//!   saturator (SPEC §2).
 
 use pathfinding::directed::dijkstra::dijkstra;
 use pathfinding::undirected::connected_components::connected_components;
 
-use crate::math::Vec2;
+use super::Snapshot;
+use crate::config::FormationParams;
+use crate::math::{angle_of, Vec2};
 use crate::world::Obstacle;
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
@@ -118,6 +141,125 @@ pub fn path_length(path: &[Vec2]) -> f64 {
     path.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
 
+/// The bump function h(x) with parameter δ ∈ (0, 1).
+pub fn bump(x: f64, delta: f64) -> f64 {
+    if x < 0.0 {
+        1.0
+    } else if x < delta {
+        1.0
+    } else if x <= 1.0 {
+        0.5 * (1.0 + (std::f64::consts::PI * (x - delta) / (1.0 - delta)).cos())
+    } else {
+        0.0
+    }
+}
+
+/// The spacing term φ1(z) = k (1 − d/z): negative (repulsive) below the spacing d, positive
+/// (attractive) above; φ1(z)·z is the derivative of ½ k (z − d)².
+pub fn phi1(z: f64, spacing: f64, k: f64) -> f64 {
+    k * (1.0 - spacing / z.max(1e-9))
+}
+
+/// The obstacle term φ2(s) = −k (1/s − 1/r′) / s² for a surface distance s < r′, else 0.
+pub fn phi2(s: f64, detect: f64, k: f64) -> f64 {
+    let s = s.max(1e-3);
+    if s >= detect {
+        0.0
+    } else {
+        -k * (1.0 / s - 1.0 / detect) / (s * s)
+    }
+}
+
+/// The spacing potential ½ k (z − d)², whose gradient gives [`phi1`] (for tests and plots).
+pub fn spacing_potential(z: f64, spacing: f64, k: f64) -> f64 {
+    0.5 * k * (z - spacing).powi(2)
+}
+
+/// The virtual leader for a pack centred at `centroid` hunting at `target`: its position and
+/// velocity.
+pub fn leader(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
+    let path = plan_path(centroid, target, &obstacle_nodes(obstacles), f.clearance, f.ring_points);
+    // The point `lead` metres along the path (or the target).
+    let mut left = f.lead;
+    for w in path.windows(2) {
+        let seg = w[1] - w[0];
+        let len = seg.norm();
+        if len >= left && len > 0.0 {
+            let dir = seg / len;
+            return (w[0] + dir * left, dir * f.leader_speed);
+        }
+        left -= len;
+    }
+    (target, Vec2::zeros())
+}
+
+fn velocity(a: &crate::world::AgentState) -> Vec2 {
+    a.v * Vec2::new(a.theta.cos(), a.theta.sin())
+}
+
+/// The formation law up to the saturator: wolf i's desired (v_d, θ_d).
+pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut super::WolfMemory, row: &mut [u8]) -> (f64, f64) {
+    let p = snap.params;
+    let f = &p.formation;
+    let me = snap.wolves[i];
+    let n = snap.wolves.len();
+    let target = snap.wolf_target[i];
+    if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
+        mem.bvc_target = Some(snap.targets[target].pos);
+        mem.last_target_velocity = velocity(&snap.targets[target]);
+        mem.last_seen_t = snap.t;
+    }
+    let Some(seen_pos) = mem.bvc_target else {
+        return (0.0, me.theta);
+    };
+    // While nobody senses the target, the pack heads for where it would be had it kept its
+    // last sensed velocity (inside the arena), not for where it was last seen.
+    let [x0, y0, x1, y1] = p.world.border;
+    let since = snap.t.saturating_sub(mem.last_seen_t) as f64 * p.world.ts;
+    let predicted = seen_pos + mem.last_target_velocity * since;
+    let target_pos = Vec2::new(predicted.x.clamp(x0, x1), predicted.y.clamp(y0, y1));
+    let centroid = snap.wolves.iter().map(|w| w.pos).sum::<Vec2>() / n as f64;
+    let (q_r, p_r) = leader(centroid, target_pos, snap.obstacles, f);
+    let angle = std::f64::consts::TAU * i as f64 / n as f64;
+    // A slot beyond a wall (the target against it) moves inside, along the wall: a wolf
+    // driving at the wall only stalls in the feasibility filter.
+    let ring = q_r + f.radius * Vec2::new(angle.cos(), angle.sin());
+    let m = f.clearance;
+    let slot = Vec2::new(ring.x.clamp(x0 + m, x1 - m), ring.y.clamp(y0 + m, y1 - m));
+    let (q_i, p_i) = (me.pos, velocity(&me));
+
+    let mut u = -f.alpha * ((q_i - slot) + f.gamma * (p_i - p_r));
+    for (j, other) in snap.wolves.iter().enumerate() {
+        let d = q_i - other.pos;
+        let z = d.norm();
+        if j == i || z > f.comm_radius {
+            continue;
+        }
+        row[j] = 1;
+        u -= phi1(z, f.spacing, f.k_spacing) * bump(z / f.comm_radius, f.bump_delta) * d + f.gamma * (p_i - velocity(other));
+    }
+    for ob in snap.obstacles {
+        let s = ob.distance(q_i);
+        if s > f.detect_radius {
+            continue;
+        }
+        let d = q_i - ob.center;
+        let z = d.norm().max(1e-9);
+        u -= phi2(s, f.detect_radius, f.k_obstacle) * bump(s / f.detect_radius, f.bump_delta) * (d / z) + f.beta * p_i;
+    }
+    let mut desired = p_i + u * p.world.ts;
+    let v_max = p.agents.wolf.v_max;
+    if desired.norm() > v_max {
+        desired *= v_max / desired.norm();
+    }
+    // Arrive without overshooting the slot when the leader stands still.
+    let v = desired.norm();
+    if v <= 1e-9 {
+        return (0.0, me.theta);
+    }
+    (v, angle_of(desired))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,6 +316,31 @@ mod tests {
         let path = plan_path(v(-4.0, 0.0), v(4.0, 0.0), &wall, 0.2, 24);
         assert!(path.iter().all(|p| p.y < 1.0), "went round the top: {path:?}");
         assert_eq!(structures(&adjacency(&wall, 0.3)), vec![vec![0, 1, 2]]);
+    }
+
+    #[test]
+    fn spacing_potential_has_its_minimum_at_the_spacing() {
+        let (d, k) = (0.7, 1.3);
+        let at = spacing_potential(d, d, k);
+        for z in [0.2, 0.5, 0.69, 0.71, 1.0, 2.0] {
+            assert!(spacing_potential(z, d, k) > at);
+        }
+        // φ1 changes sign there: repulsive below, attractive above, zero at d
+        assert!(phi1(0.5, d, k) < 0.0 && phi1(1.0, d, k) > 0.0 && phi1(d, d, k).abs() < 1e-12);
+        // φ1(z)·z is the potential's derivative (central difference)
+        let z = 1.1;
+        let numeric = (spacing_potential(z + 1e-6, d, k) - spacing_potential(z - 1e-6, d, k)) / 2e-6;
+        assert!((phi1(z, d, k) * z - numeric).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bump_and_obstacle_terms() {
+        assert_eq!(bump(0.1, 0.2), 1.0);
+        assert!((bump(0.6, 0.2) - 0.5).abs() < 1e-12);
+        assert_eq!(bump(1.0, 0.2), 0.0);
+        assert_eq!(bump(1.5, 0.2), 0.0);
+        assert_eq!(phi2(1.5, 1.5, 1.0), 0.0);
+        assert!(phi2(0.5, 1.5, 1.0) < phi2(1.0, 1.5, 1.0) && phi2(1.0, 1.5, 1.0) < 0.0, "repulsion grows towards the obstacle");
     }
 
     proptest! {

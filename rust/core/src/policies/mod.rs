@@ -7,7 +7,7 @@
 //! | [`seed000`] | §3 | wolves: attraction + tangential repulsion |
 //! | [`avoidance`] | §4 | wolves and targets: heading-based obstacle avoidance |
 //! | [`bvc`] | §6 | wolves: buffered Voronoi cells + Hungarian assignment of hunting points |
-//! | [`formation`] | §7 | wolves: obstacle graph and the virtual leader's path (the control law: not yet) |
+//! | [`formation`] | §7 | wolves: obstacle graph, virtual leader's path, potential-field formation |
 //! | [`escape`] | §5 | targets: `escape`, `random`, `still` |
 
 pub mod avoidance;
@@ -54,8 +54,7 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [
     match snap.params.policies.wolves {
         WolfPolicy::Seed000 => seed000::wolf_desired(i, snap, mem, row),
         WolfPolicy::Bvc => bvc::wolf_desired(i, snap, mem, row),
-        // Rejected by `Params::validate` until it is implemented.
-        WolfPolicy::Formation => (0.0, snap.wolves[i].theta),
+        WolfPolicy::Formation => formation::wolf_desired(i, snap, mem, row),
     }
 }
 
@@ -87,10 +86,15 @@ pub struct WolfMemory {
     /// The previous step's attraction vector ν₁ (zero before the first step).
     pub last_attraction: Vec2,
     pub danger: DangerMemory,
-    /// bvc: the target position last known to the pack (None before any sighting).
+    /// bvc and formation: the target position last known to the pack (None before any
+    /// sighting).
     pub bvc_target: Option<Vec2>,
     /// bvc: the hunting point assigned at the last assignment.
     pub bvc_point: Option<usize>,
+    /// formation: the target's velocity and the step when the pack last sensed it (to
+    /// predict where it went while nobody senses it).
+    pub last_target_velocity: Vec2,
+    pub last_seen_t: u32,
 }
 
 /// What the scripted target laws carry from one step to the next for one target.
