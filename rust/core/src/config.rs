@@ -782,6 +782,11 @@ impl Params {
         ] {
             non_negative(&format!("formation.{k}"), x)?;
         }
+        if f.clearance < f.wolf_diameter / 2.0 {
+            // With this the path search, which inflates each disc by the clearance, can never
+            // pass between two members of a merged structure (gap <= wolf_diameter).
+            return Err(bad("formation.clearance", format!("must be at least formation.wolf_diameter / 2 = {}, got {}", f.wolf_diameter / 2.0, f.clearance)));
+        }
         if !(f.bump_delta > 0.0 && f.bump_delta < 1.0) {
             return Err(bad("formation.bump_delta", format!("must lie in (0, 1), got {}", f.bump_delta)));
         }
@@ -835,6 +840,7 @@ mod tests {
             (r#"{"formation": {"bump_delta": 1.0}}"#, "formation.bump_delta"),
             (r#"{"formation": {"ring_points": 2}}"#, "formation.ring_points"),
             (r#"{"formation": {"spacing": 0}}"#, "formation.spacing"),
+            (r#"{"formation": {"clearance": 0.1}}"#, "formation.clearance"),
             (r#"{"bvc": {"safety_radius": -0.1}}"#, "bvc.safety_radius"),
             (r#"{"bvc": {"assignment_period": 0}}"#, "bvc.assignment_period"),
             (r#"{"bvc": {"disc_sides": 3}}"#, "bvc.disc_sides"),

@@ -14,7 +14,10 @@
 //!   every node (K points on a circle circumscribing the node's disc inflated by a clearance, so
 //!   that the chord between neighbouring points stays outside it) whose segments cross no node;
 //!   the shortest is found exactly by Dijkstra's algorithm (`pathfinding`). It contains the
-//!   source's tangent polylines up to the ring's resolution and cannot cross a structure.
+//!   source's tangent polylines up to the ring's resolution and cannot cross a structure:
+//!   every disc is inflated by the clearance, which validation keeps ≥ half the wolf's
+//!   diameter, so no path passes between two members of a merged structure (their gap is at
+//!   most the diameter).
 //!
 //! Control (step 6), for wolf i with position q_i and velocity p_i (its unicycle velocity):
 //!
@@ -175,9 +178,30 @@ pub fn spacing_potential(z: f64, spacing: f64, k: f64) -> f64 {
     0.5 * k * (z - spacing).powi(2)
 }
 
+thread_local! {
+    /// The last leader computed on this thread and the inputs it came from. Every wolf of a
+    /// pack asks for the same leader in the same step; the path search is a pure function of
+    /// these inputs, so answering the repeats from here changes no result (5× fewer searches).
+    static LEADER_CACHE: std::cell::RefCell<(Vec<f64>, (Vec2, Vec2))> = const { std::cell::RefCell::new((Vec::new(), (Vec2::new(0.0, 0.0), Vec2::new(0.0, 0.0)))) };
+}
+
 /// The virtual leader for a pack centred at `centroid` hunting at `target`: its position and
 /// velocity.
 pub fn leader(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
+    let mut key = vec![centroid.x, centroid.y, target.x, target.y, f.clearance, f.lead, f.leader_speed, f.ring_points as f64];
+    key.extend(obstacles.iter().flat_map(|o| [o.center.x, o.center.y, o.radius]));
+    if let Some(hit) = LEADER_CACHE.with(|c| {
+        let c = c.borrow();
+        (c.0.len() == key.len() && c.0.iter().zip(&key).all(|(a, b)| a.to_bits() == b.to_bits())).then_some(c.1)
+    }) {
+        return hit;
+    }
+    let answer = leader_uncached(centroid, target, obstacles, f);
+    LEADER_CACHE.with(|c| *c.borrow_mut() = (key, answer));
+    answer
+}
+
+fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
     let path = plan_path(centroid, target, &obstacle_nodes(obstacles), f.clearance, f.ring_points);
     // The point `lead` metres along the path (or the target).
     let mut left = f.lead;
