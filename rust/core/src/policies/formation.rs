@@ -229,11 +229,11 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut super::WolfMemory, row:
     let n = snap.wolves.len();
     let target = snap.wolf_target[i];
     if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
-        mem.bvc_target = Some(snap.targets[target].pos);
+        mem.known_target = Some(snap.targets[target].pos);
         mem.last_target_velocity = velocity(&snap.targets[target]);
         mem.last_seen_t = snap.t;
     }
-    let Some(seen_pos) = mem.bvc_target else {
+    let Some(seen_pos) = mem.known_target else {
         return (0.0, me.theta);
     };
     // While nobody senses the target, the pack heads for where it would be had it kept its

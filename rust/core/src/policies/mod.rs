@@ -88,7 +88,7 @@ pub struct WolfMemory {
     pub danger: DangerMemory,
     /// bvc and formation: the target position last known to the pack (None before any
     /// sighting).
-    pub bvc_target: Option<Vec2>,
+    pub known_target: Option<Vec2>,
     /// bvc: the hunting point assigned at the last assignment.
     pub bvc_point: Option<usize>,
     /// formation: the target's velocity and the step when the pack last sensed it (to
