@@ -29,7 +29,7 @@ use pathfinding::matrix::Matrix;
 
 use super::{Snapshot, WolfMemory};
 use crate::geometry::polygon_closest_point;
-use crate::math::{angle_of, Point2, Vec2};
+use crate::math::{angle_of, cross, Point2, Vec2};
 use crate::world::Obstacle;
 
 /// N hunting points on the circle of radius `r_h` around `target`, point k at angle 2πk/N.
@@ -57,25 +57,13 @@ pub fn assign(wolves: &[Vec2], points: &[Vec2]) -> Vec<usize> {
     kuhn_munkres_min(&matrix).1
 }
 
-thread_local! {
-    /// The last assignment solved on this thread and its inputs. Every wolf of a pack solves
-    /// the same problem in the same step; [`assign`] is a pure function of its inputs, so the
-    /// repeats are answered from here without changing any result.
-    static ASSIGNMENT_CACHE: std::cell::RefCell<(Vec<f64>, Vec<usize>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
-}
-
-/// [`assign`], answered from the per-thread cache when the inputs are bit-identical.
+/// [`assign`], memoised per thread: every wolf of the pack solves the same problem.
 fn assign_memoised(wolves: &[Vec2], points: &[Vec2]) -> Vec<usize> {
     let key: Vec<f64> = wolves.iter().chain(points).flat_map(|p| [p.x, p.y]).chain([wolves.len() as f64]).collect();
-    if let Some(hit) = ASSIGNMENT_CACHE.with(|c| {
-        let c = c.borrow();
-        (c.0.len() == key.len() && c.0.iter().zip(&key).all(|(a, b)| a.to_bits() == b.to_bits())).then(|| c.1.clone())
-    }) {
-        return hit;
+    thread_local! {
+        static LAST: std::cell::RefCell<super::LastCall<Vec<usize>>> = const { std::cell::RefCell::new(super::LastCall::new()) };
     }
-    let answer = assign(wolves, points);
-    ASSIGNMENT_CACHE.with(|c| *c.borrow_mut() = (key, answer.clone()));
-    answer
+    LAST.with(|c| c.borrow_mut().get_or(key, || assign(wolves, points)))
 }
 
 /// The half-plane {x : a·x ≤ b}.
@@ -126,10 +114,6 @@ fn hull_closest_point(ob: &Obstacle, p: Vec2) -> (Vec2, bool) {
     let inside = hull.len() >= 3 && (0..hull.len()).all(|k| cross(hull[(k + 1) % hull.len()] - hull[k], p - hull[k]) >= 0.0);
     let best = closest_on_boundary(&hull, p).0;
     (best, inside)
-}
-
-fn cross(a: Vec2, b: Vec2) -> f64 {
-    a.x * b.y - a.y * b.x
 }
 
 /// Where [`closest_point`] found the goal.
@@ -249,12 +233,7 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [
     let b = &p.bvc;
     let me = snap.wolves[i];
     let n = snap.wolves.len();
-    let target = snap.wolf_target[i];
-    // Global communication: the target's position is known if any wolf hunting it senses it.
-    if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
-        mem.known_target = Some(snap.targets[target].pos);
-    }
-    let Some(target_pos) = mem.known_target else {
+    let Some(target_pos) = super::share_target_sighting(i, snap, mem).map(|t| t.pos) else {
         return (0.0, me.theta);
     };
     let positions: Vec<Vec2> = snap.wolves.iter().map(|w| w.pos).collect();

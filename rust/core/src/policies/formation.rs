@@ -46,7 +46,7 @@ use pathfinding::undirected::connected_components::connected_components;
 
 use super::Snapshot;
 use crate::config::FormationParams;
-use crate::math::{angle_of, Vec2};
+use crate::math::{angle_of, unit, Vec2};
 use crate::world::Obstacle;
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
@@ -178,27 +178,16 @@ pub fn spacing_potential(z: f64, spacing: f64, k: f64) -> f64 {
     0.5 * k * (z - spacing).powi(2)
 }
 
-thread_local! {
-    /// The last leader computed on this thread and the inputs it came from. Every wolf of a
-    /// pack asks for the same leader in the same step; the path search is a pure function of
-    /// these inputs, so answering the repeats from here changes no result (5× fewer searches).
-    static LEADER_CACHE: std::cell::RefCell<(Vec<f64>, (Vec2, Vec2))> = const { std::cell::RefCell::new((Vec::new(), (Vec2::new(0.0, 0.0), Vec2::new(0.0, 0.0)))) };
-}
-
 /// The virtual leader for a pack centred at `centroid` hunting at `target`: its position and
-/// velocity.
+/// velocity. Memoised per thread (every wolf of the pack asks for the same leader each step:
+/// 5× fewer path searches, no result changes).
 pub fn leader(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
     let mut key = vec![centroid.x, centroid.y, target.x, target.y, f.clearance, f.lead, f.leader_speed, f.ring_points as f64];
     key.extend(obstacles.iter().flat_map(|o| [o.center.x, o.center.y, o.radius]));
-    if let Some(hit) = LEADER_CACHE.with(|c| {
-        let c = c.borrow();
-        (c.0.len() == key.len() && c.0.iter().zip(&key).all(|(a, b)| a.to_bits() == b.to_bits())).then_some(c.1)
-    }) {
-        return hit;
+    thread_local! {
+        static LAST: std::cell::RefCell<super::LastCall<(Vec2, Vec2)>> = const { std::cell::RefCell::new(super::LastCall::new()) };
     }
-    let answer = leader_uncached(centroid, target, obstacles, f);
-    LEADER_CACHE.with(|c| *c.borrow_mut() = (key, answer));
-    answer
+    LAST.with(|c| c.borrow_mut().get_or(key, || leader_uncached(centroid, target, obstacles, f)))
 }
 
 fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
@@ -218,7 +207,7 @@ fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &For
 }
 
 fn velocity(a: &crate::world::AgentState) -> Vec2 {
-    a.v * Vec2::new(a.theta.cos(), a.theta.sin())
+    a.v * unit(a.theta)
 }
 
 /// The formation law up to the saturator: wolf i's desired (v_d, θ_d).
@@ -227,20 +216,14 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut super::WolfMemory, row:
     let f = &p.formation;
     let me = snap.wolves[i];
     let n = snap.wolves.len();
-    let target = snap.wolf_target[i];
-    if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
-        mem.known_target = Some(snap.targets[target].pos);
-        mem.last_target_velocity = velocity(&snap.targets[target]);
-        mem.last_seen_t = snap.t;
-    }
-    let Some(seen_pos) = mem.known_target else {
+    let Some(seen) = super::share_target_sighting(i, snap, mem) else {
         return (0.0, me.theta);
     };
     // While nobody senses the target, the pack heads for where it would be had it kept its
     // last sensed velocity (inside the arena), not for where it was last seen.
     let [x0, y0, x1, y1] = p.world.border;
     let since = snap.t.saturating_sub(mem.last_seen_t) as f64 * p.world.ts;
-    let predicted = seen_pos + mem.last_target_velocity * since;
+    let predicted = seen.pos + velocity(&seen) * since;
     let target_pos = Vec2::new(predicted.x.clamp(x0, x1), predicted.y.clamp(y0, y1));
     let centroid = snap.wolves.iter().map(|w| w.pos).sum::<Vec2>() / n as f64;
     let (q_r, p_r) = leader(centroid, target_pos, snap.obstacles, f);

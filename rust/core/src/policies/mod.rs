@@ -86,15 +86,54 @@ pub struct WolfMemory {
     /// The previous step's attraction vector ν₁ (zero before the first step).
     pub last_attraction: Vec2,
     pub danger: DangerMemory,
-    /// bvc and formation: the target position last known to the pack (None before any
-    /// sighting).
-    pub known_target: Option<Vec2>,
+    /// bvc and formation: the target as the pack last sensed it (None before any sighting)...
+    pub known_target: Option<AgentState>,
+    /// ... and the step of that sighting (formation predicts where it went since).
+    pub last_seen_t: u32,
     /// bvc: the hunting point assigned at the last assignment.
     pub bvc_point: Option<usize>,
-    /// formation: the target's velocity and the step when the pack last sensed it (to
-    /// predict where it went while nobody senses it).
-    pub last_target_velocity: Vec2,
-    pub last_seen_t: u32,
+}
+
+/// Global communication (SPEC §1.4) for the laws that hunt a position (bvc, formation): when
+/// any wolf hunting wolf i's target senses it, the whole pack learns the target's state and the
+/// step; returns the target as last sensed (None before any sighting).
+pub fn share_target_sighting(i: usize, snap: &Snapshot, mem: &mut WolfMemory) -> Option<AgentState> {
+    let target = snap.wolf_target[i];
+    if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
+        mem.known_target = Some(snap.targets[target]);
+        mem.last_seen_t = snap.t;
+    }
+    mem.known_target
+}
+
+/// The last call of a pure computation and its answer, for a per-thread memo: every wolf of a
+/// pack asks the same question in the same step (the pack's assignment, the virtual leader).
+/// The key must hold every input of the computation (as f64); a hit needs bit-identical keys,
+/// so answering from here changes no result and determinism holds for any thread count.
+#[derive(Debug)]
+pub struct LastCall<V> {
+    key: Vec<f64>,
+    value: Option<V>,
+}
+
+impl<V: Clone> LastCall<V> {
+    pub const fn new() -> Self {
+        LastCall { key: Vec::new(), value: None }
+    }
+
+    /// `compute()`, or the stored answer when `key` equals the last call's bit for bit.
+    pub fn get_or(&mut self, key: Vec<f64>, compute: impl FnOnce() -> V) -> V {
+        let same = self.key.len() == key.len() && self.key.iter().zip(&key).all(|(a, b)| a.to_bits() == b.to_bits());
+        match &self.value {
+            Some(v) if same => v.clone(),
+            _ => {
+                let v = compute();
+                self.key = key;
+                self.value = Some(v.clone());
+                v
+            }
+        }
+    }
 }
 
 /// What the scripted target laws carry from one step to the next for one target.
