@@ -523,7 +523,20 @@ class RefWorld:
                 return x0 < x < x1 and y0 < y < y1 and not any(triangles_overlap(me, bodies[k]) for k in range(self.n) if k != i)
 
             if P["world"]["feasibility_filter"]:
+                # §1.5 step 3: a move feasible as commanded is made as commanded, however small
+                # its v; the 0.01 floor applies only to a speed reached by halving.
+                commanded = v
                 while True:
+                    x, y = w.x + v * math.cos(w.th) * ts, w.y + v * math.sin(w.th) * ts
+                    inside = x0 < x < x1 and y0 < y < y1
+                    if feasible(x, y, th):
+                        if 0.0 < v < 0.01 and v == commanded:
+                            self.hits["wolf tiny command made"] += 1
+                            if self.t == 0:
+                                self.hits["wolf tiny first command"] += 1
+                        break
+                    v *= 0.5
+                    self.hits["wolf speed halved" + ("" if inside else " (border)")] += 1
                     if v < 0.01:
                         v = 0.0  # below 0.01 it only turns ...
                         if (READINGS["turn_on_spot_checked"] and om != 0.0
@@ -531,12 +544,6 @@ class RefWorld:
                             th, om = w.th, 0.0  # ... unless that turn itself overlaps a wolf
                             self.hits["wolf turn refused"] += 1
                         break
-                    x, y = w.x + v * math.cos(w.th) * ts, w.y + v * math.sin(w.th) * ts
-                    inside = x0 < x < x1 and y0 < y < y1
-                    if feasible(x, y, th):
-                        break
-                    v *= 0.5
-                    self.hits["wolf speed halved" + ("" if inside else " (border)")] += 1
             x, y = w.x + v * math.cos(w.th) * ts, w.y + v * math.sin(w.th) * ts
             self.wolves[i] = Agent(x, y, th, v, om, w.energy + 0.5 * side["mass"] * v * v)
             bodies[i] = body(x, y, th, b["base"], b["height"])

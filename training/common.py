@@ -261,7 +261,8 @@ def rollout(
     policies for the learning sides and the scripted laws of ``params`` for the others.
 
     Returns one dict per episode with ``wolfpack.summarize``'s fields (``seed``, ``outcome``,
-    ``steps``, ``capture_step``, ``energy`` [N+M], ``collisions`` [N+M]) and ``return_wolves`` /
+    ``steps``, ``capture_step``, ``cornered_step`` (first step a target was cornered, or None),
+    ``energy`` [N+M], ``collisions`` [N+M]) and ``return_wolves`` /
     ``return_targets`` (undiscounted episode return per agent, averaged over the side's agents)
     and ``target_wall_distance`` (m, the targets' distance to the nearest wall when the episode
     ended, averaged over targets).
@@ -294,6 +295,7 @@ def rollout(
                     "outcome": outcome,
                     "steps": int(out["steps"][e]),
                     "capture_step": int(caps.max()) if outcome == "captured" else None,
+                    "cornered_step": first_cornered(out["cornered_step"][e]),
                     "energy": out["energy"][e].copy(),
                     "collisions": out["collisions"][e].copy(),
                     "n_wolves": batch.n_wolves,
@@ -305,6 +307,13 @@ def rollout(
         if progress is not None:
             progress(count)
     return results
+
+
+def first_cornered(steps: np.ndarray) -> int | None:
+    """The first step at which any target of a world was cornered (its ``cornered_step`` row of
+    a :meth:`BatchEnv.step` output, −1 = never), or None."""
+    seen = [int(c) for c in np.asarray(steps).reshape(-1) if c >= 0]
+    return min(seen) if seen else None
 
 
 def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, targets: Policy | None = None) -> dict:
@@ -342,6 +351,8 @@ def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, tar
         "border": np.array(params["world"]["border"], dtype=float),
         "outcome": outcome,
         "capture_step": int(caps.max()) if outcome == "captured" else -1,
+        "target_capture_step": np.asarray(caps, dtype=np.int64),
+        "cornered_step": np.int64(-1 if first_cornered(out["cornered_step"][0]) is None else first_cornered(out["cornered_step"][0])),
         "seed": seed,
         "ts": params["world"]["ts"],
         "capture_distance": params["capture"]["distance"],
@@ -350,8 +361,10 @@ def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, tar
 
 def report(results: list[dict], wolves: str, targets: str) -> dict:
     """One evaluation row: the ``wolfpack hunt --json`` summary of these episodes plus the
-    capture rate's 95 % Wilson interval, mean capture steps, wolf/target collision rates and
-    mean returns; ``wolves``/``targets`` name the policies."""
+    capture rate's 95 % Wilson interval, mean capture steps, wolf/target collision rates, the
+    cornered rate (episodes ended as cornered, only with ``capture.cornered``), the success
+    rate (captured + cornered), the episodes in which a target was ever cornered, and mean
+    returns; ``wolves``/``targets`` name the policies."""
     s = summarize(results)
     n = len(results)
     captured = [r["capture_step"] for r in results if r["outcome"] == "captured"]
@@ -370,6 +383,10 @@ def report(results: list[dict], wolves: str, targets: str) -> dict:
         "collision_rate": s["collision_rate"],
         "target_collision_rate": sum(bool(r["collisions"][n_wolves:].any()) for r in results) / n if n else 0.0,
         "timeout_rate": s["timeout_rate"],
+        "cornered_rate": s["cornered_rate"],
+        "success_rate": s["success_rate"],
+        "cornered_episodes": s["cornered_episodes"],
+        "ever_cornered_rate": s["cornered_episodes"] / n if n else 0.0,
         "mean_energy": s["mean_energy"],
         "mean_return_wolves": float(statistics.fmean(r["return_wolves"] for r in results)) if n else 0.0,
         "mean_return_targets": float(statistics.fmean(r["return_targets"] for r in results)) if n else 0.0,

@@ -8,7 +8,10 @@ was trained with. Episode k of every row is world ``seed + k``'s first episode, 
 seed000-vs-escape row is exactly ``wolfpack hunt --episodes K --seed S``. Per row: capture rate
 with its 95 % Wilson interval, median and mean capture steps (over captured episodes), wolf
 collision rate (episodes ended by a wolf collision), target collision rate (episodes in which a
-target touched an obstacle), timeout rate, mean energy (J per episode, all agents), mean
+target touched an obstacle), timeout rate, cornered rate (episodes ended as ``cornered``: only
+with ``--set capture.cornered=true``), success rate (captured + cornered), the share of episodes
+in which the target was ever cornered (SPEC §6; counted whether or not that ends an episode),
+mean energy (J per episode, all agents), mean
 return per agent of each side (the env's rewards, undiscounted), and the median distance of the
 target to the nearest wall when the episode ended (pinned to a wall, a target is hard to ring).
 
@@ -54,6 +57,9 @@ COLUMNS = (
     ("wolf coll.", "collision_rate", "{:.1%}"),
     ("target coll.", "target_collision_rate", "{:.1%}"),
     ("timeout", "timeout_rate", "{:.1%}"),
+    ("cornered", "cornered_rate", "{:.1%}"),
+    ("success", "success_rate", "{:.1%}"),
+    ("ever cornered", "ever_cornered_rate", "{:.1%}"),
     ("energy (J)", "mean_energy", "{:.0f}"),
     ("return wolf", "mean_return_wolves", "{:.2f}"),
     ("return target", "mean_return_targets", "{:.2f}"),

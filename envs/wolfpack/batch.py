@@ -18,8 +18,9 @@ from wolfpack.config import apply_overrides, load_params
 
 LEARNERS = ("wolves", "targets", "all", "none")
 
-#: ``outcome`` codes of :meth:`BatchEnv.step` → names.
-OUTCOMES = ("running", "captured", "collision", "timeout")
+#: ``outcome`` codes of :meth:`BatchEnv.step` → names. ``cornered`` (every target captured or
+#: cornered, at least one cornered) happens only with ``capture.cornered: true``.
+OUTCOMES = ("running", "captured", "collision", "timeout", "cornered")
 
 
 def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Mapping[str, Any]) -> dict:
@@ -65,8 +66,9 @@ def check_action(x: Any, who: str) -> np.ndarray:
 def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) -> list[dict]:
     """The info dicts of agents ``lo .. hi`` (wolves 0..N-1, then targets) of every world of a
     :meth:`BatchEnv.step` output, world-major: ``outcome``, ``capture_step`` (a wolf: the
-    episode's, once captured; a target: its own; else None), ``energy``, ``collisions``,
-    ``distance``."""
+    episode's, once it succeeded; a target: its own; else None), ``cornered_step`` (int: the
+    first step at which a target of the world was cornered, −1 if none ever was; the same for
+    every agent), ``energy``, ``collisions``, ``distance``."""
     # Plain Python lists first (.tolist()): indexing numpy scalars one by one costs several
     # times more than the dicts themselves at 64 worlds x 5 wolves.
     names = [OUTCOMES[o] for o in out["outcome"].tolist()]
@@ -74,14 +76,17 @@ def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) 
     collisions = out["collisions"][:, lo:hi].tolist()
     distance = out["distance"][:, lo:hi].tolist()
     caps = out["capture_step"].tolist()
+    corners = out["cornered_step"].tolist()
     wolves_in_range = max(0, min(hi, n_wolves) - lo)
     targets_in_range = slice(max(lo, n_wolves) - n_wolves, max(hi - n_wolves, 0))
     infos = []
     for e, name in enumerate(names):
-        world_cap = max(caps[e]) if name == "captured" else None
+        world_cap = max(caps[e]) if name in ("captured", "cornered") else None
         cap = [world_cap] * wolves_in_range + [c if c >= 0 else None for c in caps[e][targets_in_range]]
+        seen = [c for c in corners[e] if c >= 0]
+        cornered = min(seen) if seen else -1
         infos.extend(
-            {"outcome": name, "capture_step": c, "energy": en, "collisions": co, "distance": d}
+            {"outcome": name, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
             for c, en, co, d in zip(cap, energy[e], collisions[e], distance[e])
         )
     return infos
@@ -107,7 +112,9 @@ class BatchEnv:
     evaluations can report its return), ``terminated`` / ``truncated`` [E] bool,
     ``final_obs_*`` (autoreset; valid where the episode ended), and the infos of the episode the
     step belongs to: ``outcome`` [E] uint8 (see :data:`OUTCOMES`), ``steps`` [E],
-    ``capture_step`` [E, M] (−1: not captured), ``energy``, ``collisions``, ``distance``
+    ``capture_step`` [E, M] (−1: not captured; with ``capture.cornered``, a cornered target's
+    end counts), ``cornered_step`` [E, M] (first step each target was cornered, −1: never),
+    ``energy``, ``collisions``, ``distance``
     [E, N+M] (wolves: to the nearest uncaptured target; targets: to the nearest wolf).
     """
 

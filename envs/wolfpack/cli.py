@@ -32,7 +32,7 @@ from wolfpack.episodes import run_episodes, summarize
 PROG = "wolfpack"
 EXIT_INPUT, EXIT_INTERNAL, EXIT_IO, EXIT_INTERRUPTED = 2, 3, 1, 130
 
-JSON_KEYS = ("episodes", "capture_rate", "collision_rate", "timeout_rate", "median_capture_steps", "mean_energy", "env_steps_per_second")
+JSON_KEYS = ("episodes", "capture_rate", "collision_rate", "timeout_rate", "cornered_rate", "success_rate", "cornered_episodes", "median_capture_steps", "mean_energy", "env_steps_per_second")
 
 HUNT_DESCRIPTION = """\
 Run scripted episodes of the wolf-pack hunt and report how they ended.
@@ -46,27 +46,37 @@ parameters bvc.*) or formation (obstacle graph, virtual leader on the shortest p
 potential-field formation, SPEC §7; parameters formation.*). Target laws (--targets):
 escape, random, still. Each episode ends as
   captured   every target has capture.count wolves (default 4) within capture.distance (0.8 m)
+             (capture.rule: count; encircle also asks that it lie inside their convex hull;
+             hunting_points asks every wolf to be within capture.arrive_tolerance of its
+             hunting point on the bvc.radius ring, assigned as bvc assigns them)
+  cornered   only with capture.cornered=true: the target lies within capture.distance of a
+             wall, 2+ wolves are within capture.distance of it, and it lies inside the convex
+             hull of those wolves and its closest points on the near walls
   collision  a wolf touched an obstacle or another wolf
   timeout    world.max_steps steps passed.
+Whether or not cornering ends an episode, every summary counts the episodes in which the
+target was ever cornered (cornered_episodes).
 Episode k uses seed S + k and its own random generator: results do not depend on --threads,
 and episode k of a run with seed S equals episode 0 of a run with seed S + k.
 
 Output on stdout: a short table, or with --json one JSON object with the keys
-  episodes, capture_rate, collision_rate, timeout_rate, median_capture_steps (over captured
-  episodes; null if none), mean_energy (J, total of sum 1/2 m v^2 over all agents per
+  episodes, capture_rate, collision_rate, timeout_rate, cornered_rate, success_rate (captured
+  + cornered), cornered_episodes (episodes in which a target was ever cornered),
+  median_capture_steps (over captured episodes; null if none), mean_energy (J, total of sum 1/2 m v^2 over all agents per
   episode), env_steps_per_second (simulated steps / wall time spent simulating), total_steps.
 
 With --out DIR (created after the input has been checked):
   DIR/summary.json                    the --json summary plus params (resolved), seed, command,
                                       and episodes_detail (per episode: seed, outcome, steps,
-                                      capture_step, energy and collisions per agent); written
+                                      capture_step, cornered_step, energy and collisions per
+                                      agent); written
                                       last, so a failed run never leaves one behind
   DIR/summary.png                     outcome counts and the histogram of capture steps
   DIR/episode_KKK/trajectory.npz      float64 wolves [T+1,N,5] and targets [T+1,M,5]
                                       (x, y, theta, v, omega; row 0 = initial state, row t =
                                       after step t), energy [T+1,N+M] (accumulated), uint8
                                       interaction [T,N+M,N+M], outcome, capture_step (-1: none),
-                                      seed, obstacle_poses [T+1,K,3], obstacle_kind,
+                                      target_capture_step [M], cornered_step, seed, obstacle_poses [T+1,K,3], obstacle_kind,
                                       obstacle_radius, obstacle_vertices [K,V,2] (NaN-padded,
                                       relative to the centre at angle 0), border, ts,
                                       capture_distance
@@ -304,9 +314,12 @@ def _table(summary: dict, args, resolved: dict) -> str:
         f"{n} episodes, seeds {args.seed}..{args.seed + n - 1}: {w['wolves']} {pol['wolves']} wolves vs "
         f"{w['targets']} {pol['targets']} target(s), at most {w['max_steps']} steps",
     ]
-    for key in ("captured", "collision", "timeout"):
+    keys = ("captured", "cornered", "collision", "timeout") if resolved["capture"]["cornered"] else ("captured", "collision", "timeout")
+    for key in keys:
         rate = summary[f"{'capture' if key == 'captured' else key}_rate"]
         lines.append(f"  {key:<22} {round(rate * n):>6}  ({100 * rate:.1f}%)")
+    k = summary["cornered_episodes"]
+    lines.append(f"  {'ever cornered':<22} {k:>6}  ({100 * k / n if n else 0:.1f}%)")
     median = summary["median_capture_steps"]
     lines.append(f"  {'median capture steps':<22} {'-' if median is None else f'{median:g}':>6}")
     lines.append(f"  {'mean energy (J)':<22} {summary['mean_energy']:>10.2f}")

@@ -25,8 +25,10 @@ def run_episodes(
 ) -> list[dict]:
     """Runs ``episodes`` scripted episodes; returns one result dict per episode, in order.
 
-    Each result holds ``seed``, ``outcome`` (``captured`` / ``collision`` / ``timeout``),
-    ``steps``, ``capture_step`` (or ``None``), ``wolves`` N, ``targets`` M, ``energy`` [N+M]
+    Each result holds ``seed``, ``outcome`` (``captured`` / ``collision`` / ``timeout``, and
+    ``cornered`` with ``capture.cornered``), ``steps``, ``capture_step`` (or ``None``),
+    ``target_capture_steps`` [M] (each target's, or ``None``), ``cornered_step`` (the first step
+    a target was cornered, SPEC §6, or ``None``), ``wolves`` N, ``targets`` M, ``energy`` [N+M]
     (J, Σ ½ m v² per step), ``collisions`` [N+M] (steps spent overlapping), and with
     ``record=True`` a ``trajectory`` dict of arrays (see :mod:`wolfpack.logs`).
 
@@ -54,9 +56,12 @@ def run_episodes(
 
 
 def summarize(results: Iterable[dict[str, Any]], elapsed_s: float | None = None) -> dict:
-    """The ``--json`` summary of API.md: episodes, capture/collision/timeout rates, median
-    capture steps (over captured episodes; ``None`` if none), mean total energy per episode, and
-    env-steps per second (summed episode steps / wall time) when ``elapsed_s`` is given."""
+    """The ``--json`` summary of API.md: episodes, capture/collision/timeout rates, the
+    cornered rate (episodes ended as ``cornered``, only with ``capture.cornered``), the success
+    rate (captured + cornered), ``cornered_episodes`` (episodes in which a target was ever
+    cornered, whether or not that ended them), median capture steps (over captured episodes;
+    ``None`` if none), mean total energy per episode, and env-steps per second (summed episode
+    steps / wall time) when ``elapsed_s`` is given."""
     results = list(results)
     n = len(results)
     outcomes = [r["outcome"] for r in results]
@@ -67,6 +72,9 @@ def summarize(results: Iterable[dict[str, Any]], elapsed_s: float | None = None)
         "capture_rate": outcomes.count("captured") / n if n else 0.0,
         "collision_rate": outcomes.count("collision") / n if n else 0.0,
         "timeout_rate": outcomes.count("timeout") / n if n else 0.0,
+        "cornered_rate": outcomes.count("cornered") / n if n else 0.0,
+        "success_rate": (outcomes.count("captured") + outcomes.count("cornered")) / n if n else 0.0,
+        "cornered_episodes": sum(r.get("cornered_step") is not None for r in results),
         "median_capture_steps": float(statistics.median(captured)) if captured else None,
         "mean_energy": float(sum(float(r["energy"].sum()) for r in results) / n) if n else 0.0,
         "env_steps_per_second": (steps / elapsed_s) if elapsed_s and elapsed_s > 0 else None,

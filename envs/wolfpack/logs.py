@@ -22,8 +22,14 @@ key                    dtype, shape         meaning
 ``energy``             float64 [T+1, N+M]   accumulated Σ ½ m v² (J) per agent, wolves first;
                                             row 0 is 0
 ``interaction``        uint8 [T, N+M, N+M]  0/1 per step; row = observer, column = observed
-``outcome``            str scalar           ``captured`` / ``collision`` / ``timeout``
+``outcome``            str scalar           ``captured`` / ``collision`` / ``timeout`` /
+                                            ``cornered`` (only with ``capture.cornered``)
 ``capture_step``       int64 scalar         step of the (last) capture, -1 if none
+``target_capture_step`` int64 [M]           the step each target's hunt ended (captured, or
+                                            cornered where that counts), -1 if it did not;
+                                            from that step on it is drawn as captured
+``cornered_step``      int64 scalar         first step at which a target was cornered
+                                            (SPEC §6), -1 if none ever was
 ``seed``               uint64 scalar        the episode's seed
 ``obstacle_poses``     float64 [T+1, K, 3]  centre x, y and rotation angle
 ``obstacle_kind``      str [K]              static_circle, moving_circle, static_polygon,
@@ -75,6 +81,8 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
         raise ValueError("episode result has no trajectory (run with record=True)")
     shapes = list(traj["obstacle_shapes"])
     capture_step = result["capture_step"]
+    cornered_step = result.get("cornered_step")
+    ends = result.get("target_capture_steps") or [None] * int(result["targets"])
     return {
         "wolves": np.asarray(traj["wolves"], dtype=np.float64),
         "targets": np.asarray(traj["targets"], dtype=np.float64),
@@ -82,6 +90,8 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
         "interaction": np.asarray(traj["interaction"], dtype=np.uint8),
         "outcome": np.array(str(result["outcome"])),
         "capture_step": np.array(-1 if capture_step is None else int(capture_step), dtype=np.int64),
+        "target_capture_step": np.array([-1 if c is None else int(c) for c in ends], dtype=np.int64),
+        "cornered_step": np.array(-1 if cornered_step is None else int(cornered_step), dtype=np.int64),
         "seed": np.array(int(result["seed"]), dtype=np.uint64),
         "obstacle_poses": np.asarray(traj["obstacle_poses"], dtype=np.float64),
         "obstacle_kind": np.array([str(s["kind"]) for s in shapes], dtype=str),
@@ -106,14 +116,17 @@ def load_trajectory(path: Path) -> dict[str, np.ndarray]:
 
 def episode_detail(result: Mapping[str, Any]) -> dict[str, Any]:
     """One entry of ``summary.json``'s ``episodes_detail``: seed, outcome, steps, capture_step
-    (``null`` if none), energy [N+M] (J, wolves first) and collisions [N+M] (steps spent
-    overlapping an obstacle or, for wolves, another wolf)."""
+    (``null`` if none), cornered_step (first step a target was cornered, ``null`` if never),
+    energy [N+M] (J, wolves first) and collisions [N+M] (steps spent overlapping an obstacle
+    or, for wolves, another wolf)."""
     cs = result["capture_step"]
+    cornered = result.get("cornered_step")
     return {
         "seed": int(result["seed"]),
         "outcome": str(result["outcome"]),
         "steps": int(result["steps"]),
         "capture_step": None if cs is None else int(cs),
+        "cornered_step": None if cornered is None else int(cornered),
         "energy": [float(e) for e in np.asarray(result["energy"]).ravel()],
         "collisions": [int(c) for c in np.asarray(result["collisions"]).ravel()],
     }

@@ -59,9 +59,14 @@ Rewards (``rewards.*`` in params, per agent and step)
 
 Termination / Truncation
     Terminated when every target is captured (success) or a wolf collides (failure);
-    truncated at ``world.max_steps``. A captured target leaves ``agents`` at once (with M > 1
-    the others play on). ``infos[agent]``: ``outcome`` (running / captured / collision /
-    timeout), ``capture_step`` (target: its own; wolf: the episode's, else None), ``energy``
+    truncated at ``world.max_steps``. With ``capture.cornered: true`` a cornered target (SPEC
+    §6: within ``capture.distance`` of a wall, 2+ wolves within it, inside the hull of those
+    wolves and its closest wall points) ends like a captured one — rewards included — and an
+    episode whose targets all ended, one of them cornered, ends as ``cornered``. A captured
+    target leaves ``agents`` at once (with M > 1 the others play on). ``infos[agent]``:
+    ``outcome`` (running / captured / collision / timeout / cornered), ``capture_step``
+    (target: its own; wolf: the episode's on success, else None), ``cornered_step`` (int, the
+    first step at which a target of the world was cornered, −1 if none ever was), ``energy``
     (Σ ½ m v² so far), ``collisions`` (steps in contact), ``distance`` (wolf: to the nearest
     uncaptured target; target: to the nearest wolf).
 

@@ -17,8 +17,8 @@ from matplotlib.collections import PatchCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon, Rectangle
 
-OUTCOMES = ("captured", "collision", "timeout")
-_OUTCOME_COLOURS = {"captured": "tab:green", "collision": "tab:red", "timeout": "tab:gray"}
+OUTCOMES = ("captured", "cornered", "collision", "timeout")
+_OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
 _TARGET_COLOUR = "crimson"
 # Matplotlib's cycle without its red (C3), which is the target's colour.
 _WOLF_COLOURS = ("C0", "C1", "C2", "C4", "C5", "C6", "C7", "C8", "C9")
@@ -51,6 +51,9 @@ def _title(a: Mapping[str, np.ndarray], label: str) -> str:
     steps = a["interaction"].shape[0]
     cs = int(a["capture_step"])
     when = f"captured at step {cs}" if outcome == "captured" else f"{outcome} after {steps} steps"
+    cornered = int(a["cornered_step"]) if "cornered_step" in a else -1
+    if cornered >= 0 and outcome != "cornered":
+        when += f", cornered at step {cornered}"
     return f"{label}: {when} (seed {int(a['seed'])})"
 
 
@@ -151,14 +154,16 @@ def plot_interaction(a: Mapping[str, np.ndarray], path: Path, label: str = "epis
 
 
 def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
-    """``summary.png``: counts of each outcome (bar chart) and the histogram of capture steps
-    over captured episodes. ``details`` are ``summary.json``'s ``episodes_detail`` entries."""
+    """``summary.png``: counts of each outcome (bar chart; ``cornered`` only when some episode
+    ended so) and the histogram of capture steps over captured episodes. ``details`` are
+    ``summary.json``'s ``episodes_detail`` entries."""
     counts = Counter(d["outcome"] for d in details)
     capture_steps = [d["capture_step"] for d in details if d["outcome"] == "captured"]
+    shown = [o for o in OUTCOMES if o != "cornered" or counts.get(o)]
 
     fig = Figure(figsize=(9.0, 3.6), dpi=_DPI, layout="constrained")
     ax_bar, ax_hist = fig.subplots(1, 2)
-    bars = ax_bar.bar(OUTCOMES, [counts.get(o, 0) for o in OUTCOMES], color=[_OUTCOME_COLOURS[o] for o in OUTCOMES])
+    bars = ax_bar.bar(shown, [counts.get(o, 0) for o in shown], color=[_OUTCOME_COLOURS[o] for o in shown])
     ax_bar.bar_label(bars)
     ax_bar.margins(y=0.12)  # room for the labels above the bars
     ax_bar.set_ylabel("episodes")

@@ -132,7 +132,7 @@ def trajectory_frames(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any
     table = np.asarray(arrays["obstacle_vertices"], dtype=np.float64)
     local = [table[k][~np.isnan(table[k]).any(axis=1)].tolist() if table.size else [] for k in range(len(kinds))]
     interaction = np.asarray(arrays["interaction"])
-    captured_at_end = str(np.asarray(arrays["outcome"])) == "captured"
+    ended_at = _target_end_steps(arrays, targets.shape[1], rows)
     scene_params = {**params, "capture": {**params["capture"], "distance": float(np.asarray(arrays["capture_distance"]))}}
     positions = np.concatenate([wolves[:, :, :2], targets[:, :, :2]], axis=1)
     for t in range(rows):
@@ -141,9 +141,19 @@ def trajectory_frames(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any
             for k in range(len(kinds))
         ]
         history = list(positions[max(0, t - opts.trail): t + 1]) if opts.trail > 0 else []
-        captured = [captured_at_end and t == rows - 1] * targets.shape[1]
+        captured = [0 <= end <= t for end in ended_at]
         scene = _scene(scene_params, arrays["border"], wolves[t], targets[t], captured, obstacles, _trails(history), interaction[t - 1] if t > 0 else None, t, opts)
         yield _draw(scene, opts)
+
+
+def _target_end_steps(arrays: Mapping[str, np.ndarray], m: int, rows: int) -> list[int]:
+    """The step each target's hunt ended (−1: never), as the live world flagged it. Files from
+    before ``target_capture_step`` existed know only the episode's outcome: every target then
+    counts as captured at the last step of a captured episode."""
+    if "target_capture_step" in arrays:
+        return [int(c) for c in np.asarray(arrays["target_capture_step"]).reshape(-1)]
+    ended = str(np.asarray(arrays["outcome"])) in ("captured", "cornered")
+    return [rows - 1 if ended else -1] * m
 
 
 #: Render modes of the envs.

@@ -11,7 +11,8 @@ same step, its slots report ``done`` with ``infos[k]["terminal_observation"]`` (
 observation of the finished episode) and ``infos[k]["TimeLimit.truncated"]`` (True when the
 episode hit ``world.max_steps`` without terminating). A target captured while others still
 run (M > 1) keeps its slot with reward 0 until its world ends. Every ``infos[k]`` carries
-``outcome``, ``capture_step``, ``energy``, ``collisions``, ``distance`` (see the ParallelEnv).
+``outcome``, ``capture_step``, ``cornered_step``, ``energy``, ``collisions``, ``distance`` (see
+the ParallelEnv).
 
 ``seed(s)`` re-seeds world e with ``s + e`` at the next ``reset``; results never depend on
 ``threads``. ``get_attr``/``set_attr``/``env_method`` act on per-slot views that know their

@@ -63,19 +63,23 @@ pub struct StepOutput {
     /// [E, N] / [E, M], both sides always (the scripted side's too, for evaluation).
     pub rewards_wolves: Vec<f32>,
     pub rewards_targets: Vec<f32>,
-    /// [E]: the episode ended by capture or collision / by the step limit.
+    /// [E]: the episode ended by capture (or cornering, where it counts) or collision / by
+    /// the step limit.
     pub terminated: Vec<bool>,
     pub truncated: Vec<bool>,
     /// Last observation of an episode that ended this step (autoreset only; zeros elsewhere).
     pub final_obs_wolves: Vec<f32>,
     pub final_obs_targets: Vec<f32>,
     /// Infos of the episode this step belongs to (the finished one on an autoreset).
-    /// [E]: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout.
+    /// [E]: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout, 4 cornered.
     pub outcome: Vec<u8>,
     /// [E]: steps taken in the episode.
     pub steps: Vec<u32>,
-    /// [E, M]: step at which each target was captured, −1 if not.
+    /// [E, M]: step at which each target was captured (or, with `capture.cornered`,
+    /// cornered), −1 if not.
     pub capture_step: Vec<i64>,
+    /// [E, M]: the first step at which each target was cornered (SPEC §6), −1 if never.
+    pub cornered_step: Vec<i64>,
     /// [E, N+M]: accumulated energy (J), collision steps, and distance to the nearest
     /// uncaptured target (wolves; NaN when none is left) / nearest wolf (targets).
     pub energy: Vec<f64>,
@@ -89,6 +93,7 @@ pub fn outcome_code(o: Outcome) -> u8 {
         Outcome::Captured => 1,
         Outcome::Collision => 2,
         Outcome::Timeout => 3,
+        Outcome::Cornered => 4,
     }
 }
 
@@ -115,6 +120,7 @@ struct SlotOut<'a> {
     outcome: &'a mut u8,
     steps: &'a mut u32,
     capture_step: &'a mut [i64],
+    cornered_step: &'a mut [i64],
     energy: &'a mut [f64],
     collisions: &'a mut [u32],
     distance: &'a mut [f64],
@@ -247,9 +253,9 @@ impl BatchEnv {
         let mut out = self.alloc();
         let e = self.slots.len();
         let outs = self.split(&mut out, e);
-        let f = |(s, o): (&mut Slot, SlotOut)| {
+        let f = |(s, mut o): (&mut Slot, SlotOut)| {
             write_obs(s, o.obs_w, o.obs_t);
-            write_infos(&s.world, o.outcome, o.steps, o.capture_step, o.energy, o.collisions, o.distance);
+            write_infos(&s.world, &mut o);
         };
         if self.inline {
             self.slots.iter_mut().zip(outs).for_each(f);
@@ -278,6 +284,7 @@ impl BatchEnv {
             outcome: vec![0; e],
             steps: vec![0; e],
             capture_step: vec![-1; e * m],
+            cornered_step: vec![-1; e * m],
             energy: vec![0.0; e * (n + m)],
             collisions: vec![0; e * (n + m)],
             distance: vec![0.0; e * (n + m)],
@@ -301,6 +308,7 @@ impl BatchEnv {
         let mut outcome = o.outcome.iter_mut();
         let mut steps = o.steps.iter_mut();
         let mut cap = pieces(&mut o.capture_step, m, e).into_iter();
+        let mut corn = pieces(&mut o.cornered_step, m, e).into_iter();
         let mut energy = pieces(&mut o.energy, n + m, e).into_iter();
         let mut coll = pieces(&mut o.collisions, n + m, e).into_iter();
         let mut dist = pieces(&mut o.distance, n + m, e).into_iter();
@@ -317,6 +325,7 @@ impl BatchEnv {
                 outcome: outcome.next().unwrap(),
                 steps: steps.next().unwrap(),
                 capture_step: cap.next().unwrap(),
+                cornered_step: corn.next().unwrap(),
                 energy: energy.next().unwrap(),
                 collisions: coll.next().unwrap(),
                 distance: dist.next().unwrap(),
@@ -434,7 +443,7 @@ fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layou
 }
 
 #[allow(clippy::too_many_arguments)]
-fn step_slot(s: &mut Slot, o: SlotOut, wa: &[f32], ta: &[f32], learners: Learners, autoreset: bool, params: &Arc<Params>, track: bool) -> Result<()> {
+fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Learners, autoreset: bool, params: &Arc<Params>, track: bool) -> Result<()> {
     let p = &**params;
     let mode = p.env.action_mode;
     if !s.world.is_done() {
@@ -451,9 +460,9 @@ fn step_slot(s: &mut Slot, o: SlotOut, wa: &[f32], ta: &[f32], learners: Learner
         s.rewards.step(&s.world, o.rew_w, o.rew_t);
     }
     let outcome = s.world.outcome;
-    *o.term = matches!(outcome, Outcome::Captured | Outcome::Collision);
+    *o.term = matches!(outcome, Outcome::Captured | Outcome::Cornered | Outcome::Collision);
     *o.trunc = outcome == Outcome::Timeout;
-    write_infos(&s.world, o.outcome, o.steps, o.capture_step, o.energy, o.collisions, o.distance);
+    write_infos(&s.world, &mut o);
     if autoreset && outcome != Outcome::Running {
         write_obs(s, o.fin_w, o.fin_t);
         let mut next = env_slot(params, s.seed, s.episode + 1, None)?;
@@ -484,12 +493,16 @@ fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
     }
 }
 
-fn write_infos(w: &World, outcome: &mut u8, steps: &mut u32, capture_step: &mut [i64], energy: &mut [f64], collisions: &mut [u32], distance: &mut [f64]) {
-    *outcome = outcome_code(w.outcome);
-    *steps = w.t;
-    for (c, s) in capture_step.iter_mut().zip(&w.target_capture_step) {
+fn write_infos(w: &World, o: &mut SlotOut) {
+    *o.outcome = outcome_code(w.outcome);
+    *o.steps = w.t;
+    for (c, s) in o.capture_step.iter_mut().zip(&w.target_capture_step) {
         *c = s.map_or(-1, i64::from);
     }
+    for (c, s) in o.cornered_step.iter_mut().zip(&w.target_cornered_step) {
+        *c = s.map_or(-1, i64::from);
+    }
+    let (energy, collisions, distance) = (&mut *o.energy, &mut *o.collisions, &mut *o.distance);
     let n = w.n_wolves();
     for (k, e) in energy.iter_mut().enumerate() {
         *e = if k < n { w.wolves[k].energy } else { w.targets[k - n].energy };

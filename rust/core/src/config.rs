@@ -207,14 +207,21 @@ impl ObstacleParams {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "snake_case")]
 pub enum CaptureRule {
     /// At least `count` wolves within `distance`.
     Count,
     /// As `count`, and the target inside the convex hull of those wolves.
     Encircle,
+    /// The source of the `bvc` law's stopping rule (SPEC §6): every wolf hunting the target is
+    /// within `arrive_tolerance` of its hunting point — N points evenly spaced on the
+    /// `bvc.radius` ring around the target, the first at angle 0, assigned to the wolves by
+    /// minimum total distance as `bvc` assigns them (re-solved on the positions after the
+    /// move). The same test for every law; `count` plays no part in it.
+    HuntingPoints,
 }
 
+/// Success criteria (SPEC §1.5 step 4 and §6): world rules, the same for every law.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CaptureParams {
@@ -223,11 +230,20 @@ pub struct CaptureParams {
     /// Wolves needed within `distance`; `null` means ⌈0.8 N⌉ (4 for 5 wolves).
     pub count: Option<usize>,
     pub rule: CaptureRule,
+    /// Whether a *cornered* target ends as a success with its own outcome `cornered`. A target
+    /// is cornered when it lies within `distance` of at least one wall, at least 2 wolves are
+    /// within `distance` of it, and it lies inside the convex hull of those wolves together
+    /// with its closest points on every wall within `distance` (SPEC §6). Off (the default)
+    /// keeps the documented scenario's outcomes; every episode still records whether (and
+    /// when first) its target was cornered.
+    pub cornered: bool,
+    /// `rule: hunting_points`: how close (m) each wolf must be to its hunting point.
+    pub arrive_tolerance: f64,
 }
 
 impl Default for CaptureParams {
     fn default() -> Self {
-        Self { distance: 0.8, count: None, rule: CaptureRule::Count }
+        Self { distance: 0.8, count: None, rule: CaptureRule::Count, cornered: false, arrive_tolerance: 0.2 }
     }
 }
 
@@ -425,6 +441,11 @@ pub struct AvoidanceParams {
     pub target_edge_from_desired: bool,
     pub wolf_single: KappaRow,
     pub wolf_multi: KappaRow,
+    /// The target rows are the source document's table except the wall column: the document
+    /// gives 1.2, the published reference used 1.6 (one item) / 1.3 (several), and the
+    /// documented scenario's published outcomes were produced with those, so they are the
+    /// default (SPEC §4's decision). The document's 1.2 lets the escape target hug the walls,
+    /// where four wolves cannot close around it (measured in README's scenario section).
     pub target_single: KappaRow,
     pub target_multi: KappaRow,
 }
@@ -442,8 +463,10 @@ impl Default for AvoidanceParams {
             target_edge_from_desired: true,
             wolf_single: KappaRow { wall: 1.6, circle: 2.4, static_polygon: 2.4, moving_polygon: 3.2 },
             wolf_multi: KappaRow { wall: 1.3, circle: 1.8, static_polygon: 1.8, moving_polygon: 2.2 },
-            target_single: KappaRow { wall: 1.2, circle: 2.0, static_polygon: 2.0, moving_polygon: 2.8 },
-            target_multi: KappaRow { wall: 1.2, circle: 1.6, static_polygon: 1.6, moving_polygon: 2.0 },
+            // The target's wall factor is the published reference's 1.6 / 1.3 (SPEC §4's
+            // decision), not the source document's 1.2: see `target_single`.
+            target_single: KappaRow { wall: 1.6, circle: 2.0, static_polygon: 2.0, moving_polygon: 2.8 },
+            target_multi: KappaRow { wall: 1.3, circle: 1.6, static_polygon: 1.6, moving_polygon: 2.0 },
         }
     }
 }
@@ -700,6 +723,7 @@ impl Params {
         }
 
         positive("capture.distance", self.capture.distance)?;
+        positive("capture.arrive_tolerance", self.capture.arrive_tolerance)?;
         if let Some(c) = self.capture.count {
             if c < 1 {
                 return Err(bad("capture.count", "must be >= 1"));
@@ -835,6 +859,11 @@ mod tests {
             (r#"{"world": {"wolves": 0}}"#, "world.wolves"),
             (r#"{"world": {"border": [5, -10, 5, 10]}}"#, "world.border"),
             (r#"{"capture": {"count": 6}}"#, "capture.count"),
+            (r#"{"capture": {"arrive_tolerance": 0}}"#, "capture.arrive_tolerance"),
+            (r#"{"capture": {"arrive_tolerance": -0.1}}"#, "capture.arrive_tolerance"),
+            (r#"{"capture": {"cornered": 1}}"#, "capture.cornered"),
+            (r#"{"capture": {"cornered": "yes"}}"#, "capture.cornered"),
+            (r#"{"capture": {"rule": "surround"}}"#, "capture.rule"),
             (r#"{"agents": {"wolf": {"v_max": -1}}}"#, "agents.wolf.v_max"),
             (r#"{"obstacles": {"circle_radius": [0, 1]}}"#, "obstacles.circle_radius"),
             (r#"{"formation": {"bump_delta": 1.0}}"#, "formation.bump_delta"),

@@ -74,6 +74,12 @@ pub struct EpisodeResult {
     pub steps: u32,
     /// Step of the last capture, for captured episodes.
     pub capture_step: Option<u32>,
+    /// Per target: the step its hunt ended (captured, or cornered where `capture.cornered`
+    /// counts it), `None` if it never ended.
+    pub target_capture_steps: Vec<Option<u32>>,
+    /// The first step at which any target was cornered (SPEC §6), whether or not that ended
+    /// the episode; `None` if no target ever was.
+    pub cornered_step: Option<u32>,
     /// Per agent (wolves, then targets), J.
     pub energy: Vec<f64>,
     /// Per agent, steps spent overlapping an obstacle or (wolves) a wolf.
@@ -115,6 +121,8 @@ pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, rec
         outcome: world.outcome,
         steps: world.t,
         capture_step: world.capture_step(),
+        target_capture_steps: world.target_capture_step.clone(),
+        cornered_step: world.cornered_step(),
         energy: world.wolves.iter().chain(&world.targets).map(|a| a.energy).collect(),
         collisions: world.collisions.clone(),
         wolves: n,

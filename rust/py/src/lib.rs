@@ -184,6 +184,8 @@ fn result_to_py<'py>(py: Python<'py>, r: EpisodeResult) -> PyResult<Bound<'py, P
     d.set_item("outcome", r.outcome.as_str())?;
     d.set_item("steps", r.steps)?;
     d.set_item("capture_step", r.capture_step)?;
+    d.set_item("target_capture_steps", r.target_capture_steps)?;
+    d.set_item("cornered_step", r.cornered_step)?;
     d.set_item("wolves", r.wolves)?;
     d.set_item("targets", r.targets)?;
     d.set_item("energy", PyArray1::from_vec(py, r.energy))?;
@@ -196,7 +198,9 @@ fn result_to_py<'py>(py: Python<'py>, r: EpisodeResult) -> PyResult<Bound<'py, P
 
 /// Runs scripted episodes `first .. first+count` with seeds `seed + k`, in parallel on
 /// `threads` threads (None: all cores) with the GIL released. Results (in episode order) do not
-/// depend on `threads`. Each result is a dict: seed, outcome, steps, capture_step, wolves,
+/// depend on `threads`. Each result is a dict: seed, outcome, steps, capture_step,
+/// target_capture_steps [M] (each target's capture step or None), cornered_step (first step a
+/// target was cornered, or None), wolves,
 /// targets, energy [N+M], collisions [N+M], and with `record` a `trajectory` dict of arrays
 /// (wolves [T+1,N,5], targets [T+1,M,5], energy [T+1,N+M], interaction uint8 [T,N+M,N+M],
 /// obstacle_poses [T+1,K,3], obstacle_shapes list).
@@ -272,6 +276,7 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyR
     d.set_item("outcome", PyArray1::from_vec(py, o.outcome))?;
     d.set_item("steps", PyArray1::from_vec(py, o.steps))?;
     d.set_item("capture_step", array(py, o.capture_step, &[e, m])?)?;
+    d.set_item("cornered_step", array(py, o.cornered_step, &[e, m])?)?;
     d.set_item("energy", array(py, o.energy, &[e, n + m])?)?;
     d.set_item("collisions", array(py, o.collisions, &[e, n + m])?)?;
     d.set_item("distance", array(py, o.distance, &[e, n + m])?)?;
@@ -379,7 +384,7 @@ impl PyBatchEnv {
     }
 
     /// World `index`'s state: wolves [N, 5] and targets [M, 5] (x, y, θ, v, ω), energy [N+M],
-    /// interaction [(N+M), (N+M)] uint8, captured [M], obstacles (list of dicts: kind, moving,
+    /// interaction [(N+M), (N+M)] uint8, captured [M], cornered [M] (ever cornered), obstacles (list of dicts: kind, moving,
     /// center, radius, angle, vertices [world], local [at angle 0]), step,
     /// outcome, seed, episode.
     fn world_state<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
@@ -392,6 +397,7 @@ impl PyBatchEnv {
         d.set_item("energy", PyArray1::from_vec(py, w.wolves.iter().chain(&w.targets).map(|a| a.energy).collect()))?;
         d.set_item("interaction", array(py, w.interaction.clone(), &[n + m, n + m])?)?;
         d.set_item("captured", PyArray1::from_vec(py, w.target_captured.clone()))?;
+        d.set_item("cornered", PyArray1::from_vec(py, w.target_cornered_step.iter().map(Option::is_some).collect()))?;
         let obstacles = PyList::empty(py);
         for o in &w.obstacles {
             let od = PyDict::new(py);

@@ -580,7 +580,7 @@ mod tests {
         let sp = ItemKind::Obstacle(ObstacleKind::StaticPolygon);
         let mp = ItemKind::Obstacle(ObstacleKind::MovingPolygon);
         let w = ItemKind::Wall;
-        let rows = [(true, 1, [1.6, 2.4, 2.4, 3.2]), (true, 2, [1.3, 1.8, 1.8, 2.2]), (false, 1, [1.2, 2.0, 2.0, 2.8]), (false, 3, [1.2, 1.6, 1.6, 2.0])];
+        let rows = [(true, 1, [1.6, 2.4, 2.4, 3.2]), (true, 2, [1.3, 1.8, 1.8, 2.2]), (false, 1, [1.6, 2.0, 2.0, 2.8]), (false, 3, [1.3, 1.6, 1.6, 2.0])];
         for (wolf, n, want) in rows {
             let r = kappa_row(&a, wolf, n);
             assert_eq!([kappa(r, w), kappa(r, c), kappa(r, sp), kappa(r, mp)], want, "wolf={wolf} n={n}");
@@ -903,7 +903,7 @@ mod tests {
         w.targets[0] = AgentState::at(8.8, 0.0, 0.0);
         w.obstacles[0] = Obstacle::circle(v(8.8, 1.5), 0.5, true);
         // Heading π/2 − 0.1 towards the circle: circle interval π/2 ± 1.6·0.3398 =
-        // (1.0271, 2.1145); wall interval 0 ± 1.2·acos(1.2/1.4) = ±0.6493: separate. θ and
+        // (1.0271, 2.1145); wall interval 0 ± 1.3·acos(1.2/1.4) = ±0.7034: separate. θ and
         // θ_d = π/2 − 0.2 are nearer the lower edge → π/2 − 0.5437 − 0.01 (with
         // target_single's κ = 2.0 it would be π/2 − 0.6797 − 0.01).
         w.targets[0].theta = FRAC_PI_2 - 0.1;

@@ -13,7 +13,9 @@
 //!   obstacle within sensing range (the max-margin line between p_i and the obstacle's convex
 //!   hull — through the midpoint of p_i and the hull's closest point, normal along that
 //!   segment — shifted by r_s). If the buffers leave nothing (wolves closer than 2 r_s), the
-//!   unbuffered cell is used, which always contains p_i.
+//!   unbuffered cell is used, which always contains p_i. A wolf closer than 2 r_s to an
+//!   obstacle's hull lies outside its own (non-empty) cell: its goal is then a point of the
+//!   cell, which takes it away from the obstacle.
 //! - Goal ([`closest_point`]): the hunting point if the cell contains it, else the cell's
 //!   closest point to it, on an edge (projection parameter λ ∈ [0, 1]) or at a vertex.
 //! - Command: within `bvc.d_min` of an obstacle or of another wolf (a reading: SPEC names only
@@ -370,6 +372,13 @@ mod tests {
             for o in &obstacles {
                 for w in &wolves {
                     prop_assume!(o.distance(*w) > 2.0 * rs + 0.1);
+                    // Beyond the buffer of the separating line too: that line is drawn to the
+                    // convex hull, which can come closer than the polygon itself. A wolf
+                    // inside a hull's buffer is (by construction) outside its own cell and
+                    // heads for it, away from the obstacle; a wolf in a pocket (inside the
+                    // hull) is separated from the polygon instead.
+                    let (q, in_hull) = hull_closest_point(o, *w);
+                    prop_assume!(in_hull || (q - w).norm() > 2.0 * rs + 0.1);
                 }
             }
             let border = [-10.0, -10.0, 10.0, 10.0];

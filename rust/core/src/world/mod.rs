@@ -50,6 +50,9 @@ pub enum Outcome {
     Collision,
     /// `world.max_steps` reached.
     Timeout,
+    /// Every target captured or cornered, at least one of them cornered (only with
+    /// `capture.cornered`; SPEC §6).
+    Cornered,
 }
 
 impl Outcome {
@@ -59,7 +62,13 @@ impl Outcome {
             Self::Captured => "captured",
             Self::Collision => "collision",
             Self::Timeout => "timeout",
+            Self::Cornered => "cornered",
         }
+    }
+
+    /// The episode ended as a success: every target captured (or cornered, where that counts).
+    pub fn is_success(self) -> bool {
+        matches!(self, Self::Captured | Self::Cornered)
     }
 }
 
@@ -92,8 +101,16 @@ pub struct World {
     pub wolf_target: Vec<usize>,
     pub wolf_senses: Vec<bool>,
     pub target_seen_at: Vec<Option<u32>>,
+    /// Whether each target's hunt is over: captured or, with `capture.cornered`, cornered. An
+    /// ended target stands still, and wolves re-pick among the others.
     pub target_captured: Vec<bool>,
+    /// The step each target's hunt ended (capture, or cornering where it counts).
     pub target_capture_step: Vec<Option<u32>>,
+    /// The first step at which each target was cornered (SPEC §6), whether or not
+    /// `capture.cornered` makes that a success.
+    pub target_cornered_step: Vec<Option<u32>>,
+    /// Whether each ended target's hunt ended by cornering rather than capture.
+    pub target_ended_cornered: Vec<bool>,
     pub wolf_memory: Vec<WolfMemory>,
     pub target_memory: Vec<TargetMemory>,
     /// This step's interaction matrix, (N+M)² row-major; rows/columns: wolves, then targets.
@@ -166,6 +183,8 @@ impl World {
             target_seen_at: vec![None; m],
             target_captured: vec![false; m],
             target_capture_step: vec![None; m],
+            target_cornered_step: vec![None; m],
+            target_ended_cornered: vec![false; m],
             wolf_memory: vec![WolfMemory::default(); n],
             target_memory: vec![TargetMemory::default(); m],
             interaction: vec![0; (n + m) * (n + m)],
@@ -204,6 +223,11 @@ impl World {
     /// Step at which the last target was captured, if the episode ended in a capture.
     pub fn capture_step(&self) -> Option<u32> {
         (self.outcome == Outcome::Captured).then(|| self.target_capture_step.iter().flatten().copied().max()).flatten()
+    }
+
+    /// The first step at which any target was cornered (SPEC §6), if one ever was.
+    pub fn cornered_step(&self) -> Option<u32> {
+        self.target_cornered_step.iter().flatten().copied().min()
     }
 }
 

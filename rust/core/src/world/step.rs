@@ -10,7 +10,8 @@ use crate::math::{unit, wrap, Point2, Vec2};
 use crate::policies::saturator::saturate;
 use crate::policies::{self, Command, Snapshot};
 
-/// Below this speed an infeasible wolf stops halving and only turns (SPEC §1.5).
+/// A speed reached by halving below this stops the wolf: it only turns (SPEC §1.5). A
+/// commanded speed below it is made as commanded when feasible.
 const MIN_HALVED_SPEED: f64 = 0.01;
 
 impl World {
@@ -112,7 +113,14 @@ impl World {
             let mut omega = cmd.omega;
             let mut v = cmd.v;
             if p.world.feasibility_filter {
+                // SPEC §1.5: a move feasible as commanded is made as commanded, however small
+                // its v; only a speed reached by halving is floored at 0.01.
                 loop {
+                    let pos = w.pos + unit(w.theta) * (v * ts);
+                    if self.wolf_pose_feasible(i, pos, theta) {
+                        break;
+                    }
+                    v *= 0.5;
                     if v < MIN_HALVED_SPEED {
                         v = 0.0;
                         // SPEC: below 0.01 it only turns. A turn on the spot that would itself
@@ -124,11 +132,6 @@ impl World {
                         }
                         break;
                     }
-                    let pos = w.pos + unit(w.theta) * (v * ts);
-                    if self.wolf_pose_feasible(i, pos, theta) {
-                        break;
-                    }
-                    v *= 0.5;
                 }
             }
             let pos = w.pos + unit(w.theta) * (v * ts);
@@ -209,37 +212,93 @@ impl World {
             }
         }
         let need = p.capture_count();
+        let border = p.world.border;
         for j in 0..self.targets.len() {
             if self.target_captured[j] {
                 continue;
             }
             let tp = self.targets[j].pos;
-            let near = |q: &Vec2| (q - tp).norm() <= p.capture.distance;
-            let captured = self.wolves.iter().filter(|w| near(&w.pos)).count() >= need
-                && match p.capture.rule {
-                    CaptureRule::Count => true,
-                    // Rare path (only once enough wolves are close): allocation is fine here.
-                    CaptureRule::Encircle => encircled(&self.wolves.iter().map(|w| w.pos).filter(near).collect::<Vec<_>>(), tp),
-                };
-            if captured {
+            let captured = match p.capture.rule {
+                CaptureRule::Count => self.wolves_near(tp, p.capture.distance) >= need,
+                // Rare path (only once enough wolves are close): allocation is fine here.
+                CaptureRule::Encircle => self.wolves_near(tp, p.capture.distance) >= need && encircled(&self.wolf_positions_near(tp, p.capture.distance), tp),
+                CaptureRule::HuntingPoints => self.at_hunting_points(j, p.bvc.radius, p.capture.arrive_tolerance),
+            };
+            let cornered = !captured && cornered(&self.wolves, tp, border, p.capture.distance);
+            if cornered && self.target_cornered_step[j].is_none() {
+                self.target_cornered_step[j] = Some(self.t);
+            }
+            if captured || (cornered && p.capture.cornered) {
                 self.target_captured[j] = true;
                 self.target_capture_step[j] = Some(self.t);
+                self.target_ended_cornered[j] = !captured;
             }
         }
         // A wolf collision ends the episode as a failure even if the same step captured.
         self.outcome = if wolf_collided {
             Outcome::Collision
         } else if self.target_captured.iter().all(|&c| c) {
-            Outcome::Captured
+            if self.target_ended_cornered.iter().any(|&c| c) {
+                Outcome::Cornered
+            } else {
+                Outcome::Captured
+            }
         } else if self.t >= p.world.max_steps {
             Outcome::Timeout
         } else {
             Outcome::Running
         };
     }
+
+    /// Wolves within `r` of `p`.
+    fn wolves_near(&self, p: Vec2, r: f64) -> usize {
+        self.wolves.iter().filter(|w| (w.pos - p).norm() <= r).count()
+    }
+
+    fn wolf_positions_near(&self, p: Vec2, r: f64) -> Vec<Vec2> {
+        self.wolves.iter().map(|w| w.pos).filter(|q| (q - p).norm() <= r).collect()
+    }
+
+    /// `capture.rule: hunting_points` for target j: every wolf hunting it lies within `tol` of
+    /// its hunting point (the N_j points on the ring of radius `r_h` around the target, first
+    /// at angle 0, assigned by minimum total distance as the bvc law assigns them).
+    fn at_hunting_points(&self, j: usize, r_h: f64, tol: f64) -> bool {
+        let tp = self.targets[j].pos;
+        let hunters: Vec<Vec2> = self.wolves.iter().zip(&self.wolf_target).filter(|(_, &t)| t == j).map(|(w, _)| w.pos).collect();
+        // Cheap necessary condition first: every hunter within r_h + tol of the target.
+        let reach = r_h + tol;
+        if hunters.is_empty() || hunters.iter().any(|q| (q - tp).norm_squared() > reach * reach) {
+            return false;
+        }
+        let points = policies::bvc::hunting_points(tp, hunters.len(), r_h);
+        let assignment = policies::bvc::assign(&hunters, &points);
+        hunters.iter().zip(&assignment).all(|(q, &k)| (q - points[k]).norm() <= tol)
+    }
 }
 
-/// The target lies inside (or on) the convex hull of the given wolves.
+/// SPEC §6, for every law: the target at `tp` is cornered when it lies within `d` of at least
+/// one wall, at least 2 wolves are within `d` of it, and it lies inside (or on) the convex
+/// hull of those wolves together with its closest points on every wall within `d` — the
+/// `encircle` test with the near walls standing in for wolves.
+pub(crate) fn cornered(wolves: &[AgentState], tp: Vec2, border: [f64; 4], d: f64) -> bool {
+    let [x0, y0, x1, y1] = border;
+    // The closest point of each wall: the target's projection onto it (the target is inside).
+    let walls = [(tp.x - x0, Vec2::new(x0, tp.y)), (x1 - tp.x, Vec2::new(x1, tp.y)), (tp.y - y0, Vec2::new(tp.x, y0)), (y1 - tp.y, Vec2::new(tp.x, y1))];
+    if !walls.iter().any(|&(dist, _)| dist <= d) {
+        return false;
+    }
+    let near = wolves.iter().filter(|w| (w.pos - tp).norm() <= d).count();
+    if near < 2 {
+        return false;
+    }
+    // Rare path (a target near a wall with two wolves at it): allocation is fine here.
+    let mut points: Vec<Vec2> = wolves.iter().map(|w| w.pos).filter(|q| (q - tp).norm() <= d).collect();
+    points.extend(walls.iter().filter(|&&(dist, _)| dist <= d).map(|&(_, q)| q));
+    encircled(&points, tp)
+}
+
+/// The target lies inside (or on) the convex hull of the given points (wolves, and for the
+/// cornered test wall points).
 fn encircled(wolves: &[Vec2], target: Vec2) -> bool {
     if wolves.len() < 3 {
         return false;
@@ -329,6 +388,113 @@ pub(super) fn nearest_uncaptured(wolves: &[AgentState], targets: &[AgentState], 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::TargetPolicy;
+    use crate::world::Layout;
+    use std::sync::Arc;
+
+    const BORDER: [f64; 4] = [-10.0, -10.0, 10.0, 10.0];
+    const D: f64 = 0.8;
+
+    fn at(points: &[(f64, f64)]) -> Vec<AgentState> {
+        points.iter().map(|&(x, y)| AgentState::at(x, y, 0.0)).collect()
+    }
+
+    #[test]
+    fn cornered_in_a_corner_by_two_wolves() {
+        // Target 0.5 m from the top and right walls; wall points (10, 9.5), (9.5, 10). Wolves
+        // at (9.0, 9.6) and (9.6, 9.0), 0.51 m away: the hull's inner edge x + y = 18.6 passes
+        // below-left of the target (x + y = 19), so the target is inside.
+        let tp = Vec2::new(9.5, 9.5);
+        assert!(cornered(&at(&[(9.0, 9.6), (9.6, 9.0), (0.0, 0.0)]), tp, BORDER, D));
+        // One wolf is not enough.
+        assert!(!cornered(&at(&[(9.0, 9.6), (0.0, 0.0)]), tp, BORDER, D));
+        // Wolves on the wrong side: both up-left of the target, the hull's lower edge from
+        // (9.0, 9.6) to (10, 9.5) passes above it (y = 9.55 at x = 9.5).
+        assert!(!cornered(&at(&[(9.0, 9.6), (9.2, 9.9)]), tp, BORDER, D));
+        // A wolf just beyond the capture distance does not count: (9.6, 8.69) is 0.816 m away.
+        assert!(!cornered(&at(&[(9.0, 9.6), (9.6, 8.69)]), tp, BORDER, D));
+    }
+
+    #[test]
+    fn cornered_against_one_wall_by_three_wolves() {
+        // Target 0.5 m below the top wall (wall point (0, 10)); three wolves 0.6 m around its
+        // lower side close the hull.
+        let tp = Vec2::new(0.0, 9.5);
+        let wolves = at(&[(-0.6, 9.4), (0.0, 8.9), (0.6, 9.4)]);
+        assert!(cornered(&wolves, tp, BORDER, D));
+        // Near miss: the same formation 0.85 m from the wall (farther than the capture distance
+        // from every wall) is not cornered.
+        let shifted: Vec<AgentState> = wolves.iter().map(|w| AgentState::at(w.pos.x, w.pos.y - 0.35, 0.0)).collect();
+        assert!(!cornered(&shifted, Vec2::new(0.0, 9.15), BORDER, D));
+        // Wrong side: three wolves between the target and the wall.
+        assert!(!cornered(&at(&[(-0.5, 9.8), (0.5, 9.8), (0.0, 9.9)]), tp, BORDER, D));
+        // Every wall counts: the same scene mirrored against the bottom wall, with an arena
+        // whose walls are not at ±10.
+        let b = [-3.0, -20.0, 7.0, 1.0];
+        assert!(cornered(&at(&[(1.4, -19.4), (2.0, -18.9), (2.6, -19.4)]), Vec2::new(2.0, -19.5), b, D));
+    }
+
+    fn still_world(wolves: &[(f64, f64)], target: (f64, f64), edit: impl FnOnce(&mut Params)) -> World {
+        let mut p = Params::default();
+        p.policies.targets = TargetPolicy::Still;
+        p.obstacles.static_circles = 0;
+        edit(&mut p);
+        let l = Layout { wolves: wolves.iter().map(|&(x, y)| [x, y, 0.0]).collect(), targets: vec![[target.0, target.1, 0.0]], obstacles: vec![] };
+        World::from_layout(Arc::new(p), 0, &l).unwrap()
+    }
+
+    /// One step with every wolf commanded to stand still.
+    fn stand(w: &mut World) -> Outcome {
+        let cmds = vec![Command::default(); w.n_wolves()];
+        w.step_with(Some(&cmds), None)
+    }
+
+    #[test]
+    fn cornered_ends_the_episode_only_when_it_counts() {
+        let wolves = [(9.0, 9.6), (9.6, 9.0), (-5.0, -5.0), (-5.0, 5.0), (5.0, -5.0)];
+        let mut w = still_world(&wolves, (9.5, 9.5), |_| {});
+        assert_eq!(stand(&mut w), Outcome::Running, "capture.cornered is off by default");
+        assert_eq!(w.cornered_step(), Some(1));
+        assert_eq!(stand(&mut w), Outcome::Running);
+        assert_eq!(w.cornered_step(), Some(1), "the first cornered step is kept");
+        let mut w = still_world(&wolves, (9.5, 9.5), |p| p.capture.cornered = true);
+        assert_eq!(stand(&mut w), Outcome::Cornered);
+        assert!(w.outcome.is_success() && w.target_captured[0] && w.target_ended_cornered[0]);
+        assert_eq!((w.target_capture_step[0], w.capture_step(), w.cornered_step()), (Some(1), None, Some(1)));
+        // A capture takes precedence over cornering at the same step.
+        let four = [(9.0, 9.6), (9.6, 9.0), (9.2, 9.2), (9.7, 9.2), (-5.0, 5.0)];
+        let mut w = still_world(&four, (9.5, 9.5), |p| p.capture.cornered = true);
+        assert_eq!(stand(&mut w), Outcome::Captured);
+        assert_eq!((w.capture_step(), w.cornered_step()), (Some(1), None));
+    }
+
+    #[test]
+    fn hunting_points_rule_needs_every_wolf_at_its_point() {
+        // Three wolves, bvc ring 0.6 around (1, 2): points at angles 0, 2π/3, 4π/3. Each wolf
+        // 0.15 m off its own point (tolerance 0.2) — but listed out of order, so only the
+        // assignment matches them up.
+        let tp = (1.0, 2.0);
+        let point = |k: usize, off: f64| {
+            let a = std::f64::consts::TAU * k as f64 / 3.0;
+            (tp.0 + (0.6 + off) * a.cos(), tp.1 + (0.6 + off) * a.sin())
+        };
+        let set = |p: &mut Params| {
+            p.capture.rule = CaptureRule::HuntingPoints;
+            p.world.wolves = 3;
+        };
+        let mut w = still_world(&[point(2, 0.15), point(0, 0.15), point(1, -0.15)], tp, set);
+        assert_eq!(stand(&mut w), Outcome::Captured);
+        // One wolf 0.25 m off: not yet, though all three are within capture.distance.
+        let mut w = still_world(&[point(2, 0.15), point(0, 0.25), point(1, -0.15)], tp, set);
+        assert_eq!(stand(&mut w), Outcome::Running);
+        // Three wolves bunched around point 0 are within the capture distance (the count rule
+        // would capture) but only one is at a hunting point.
+        let mut w = still_world(&[(1.6, 2.0), (1.6, 2.25), (1.6, 1.75)], tp, |p| {
+            set(p);
+            p.capture.count = Some(3);
+        });
+        assert_eq!(stand(&mut w), Outcome::Running);
+    }
 
     #[test]
     fn encircle_needs_the_target_inside_the_hull() {
