@@ -30,6 +30,11 @@ BAD_ARGS = [
     (["--set", "world.max_steps=0"], "world.max_steps"),
     (["--set", "world.border=[5,-10,5,10]"], "world.border"),  # x_min ≥ x_max
     (["--set", "capture.count=6"], "capture.count"),  # more than the wolves
+    (["--set", "capture.arrive_tolerance=0"], "capture.arrive_tolerance"),  # SPEC §6 success rules
+    (["--set", "capture.arrive_tolerance=-0.2"], "capture.arrive_tolerance"),
+    (["--set", "capture.cornered=1"], "capture.cornered"),
+    (["--set", "capture.cornered=sometimes"], "capture.cornered"),
+    (["--set", "capture.rule=surround"], "capture.rule"),
     (["--set", "obstacles.static_polygons=500"], "spawn: could not place static polygon"),  # infeasible
     (["--set", "policies.targets=flee"], "policies.targets"),  # unknown policy names
     (["--set", "policies.wolves=lion"], "policies.wolves"),
@@ -213,7 +218,9 @@ def test_summary_json_holds_the_summary_params_command_and_details(small_run):
         assert d["outcome"] in ("captured", "collision", "timeout")
         assert 1 <= d["steps"] <= 120
         assert (d["capture_step"] is not None) == (d["outcome"] == "captured")
+        assert d["cornered_step"] is None or 1 <= d["cornered_step"] <= d["steps"]
         assert len(d["energy"]) == len(d["collisions"]) == 6
+    assert summary["cornered_episodes"] == sum(d["cornered_step"] is not None for d in details)
     captured = sorted(d["capture_step"] for d in details if d["outcome"] == "captured")
     assert summary["median_capture_steps"] == (float(np.median(captured)) if captured else None)
     assert math.isclose(summary["mean_energy"], np.mean([sum(d["energy"]) for d in details]))
@@ -346,3 +353,28 @@ def test_bench_reports_throughput_for_one_thread_and_all_cores(cli):
         assert row["env_steps"] == 12 and row["env_steps_per_second"] > 0
     table = cli("bench", "--episodes", "1", "--batch-steps", "2", "--threads", "2")
     assert table.returncode == 0 and "env-steps/s" in table.stdout
+
+
+def test_cornered_targets_are_counted_and_end_episodes_only_when_asked(cli, tmp_path):
+    """SPEC §6: without capture.cornered cornering is only counted; with it a cornered target is
+    a success of its own (outcome ``cornered``), so bvc's success rate is at least its capture
+    rate without it, on the same episodes."""
+    plain = json.loads(cli("hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "0", "--json").stdout)
+    out = tmp_path / "run"
+    proc = cli("hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "0", "--json", "--plots", "0",
+               "--set", "capture.cornered=true", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    asked = json.loads(proc.stdout)
+    assert plain["cornered_rate"] == 0.0 and plain["cornered_episodes"] > 0
+    assert plain["success_rate"] == plain["capture_rate"]
+    assert asked["cornered_rate"] > 0.0
+    assert asked["success_rate"] == asked["capture_rate"] + asked["cornered_rate"] >= plain["capture_rate"]
+    details = json.loads((out / "summary.json").read_text())["episodes_detail"]
+    for d in details:
+        if d["outcome"] == "cornered":  # cornered at its last step, never captured
+            assert d["cornered_step"] == d["steps"] and d["capture_step"] is None
+    k = next(i for i, d in enumerate(details) if d["outcome"] == "cornered")
+    arrays = np.load(out / f"episode_{k:03d}" / "trajectory.npz")
+    assert str(arrays["outcome"]) == "cornered"
+    assert int(arrays["cornered_step"]) == details[k]["steps"] == int(arrays["target_capture_step"][0])
+    assert int(arrays["capture_step"]) == -1

@@ -287,3 +287,33 @@ def test_vec_env_and_batch_bad_actions():
         batch.step(a)
     with pytest.raises(ValueError, match="required"):
         batch.step()
+
+
+def test_cornered_episodes_terminate_and_infos_carry_the_cornered_step():
+    """SPEC §6 through the batch and the ParallelEnv: with capture.cornered a cornered target
+    terminates its world with outcome code 4 (``cornered``), its ``capture_step`` and
+    ``cornered_step`` both that step; ``infos[agent]["cornered_step"]`` is an int (−1 until a
+    target is cornered) at every step."""
+    sets = {"policies.wolves": "bvc", "capture.cornered": True}
+    batch = wolfpack.BatchEnv(num_envs=8, learners="none", seed=0, autoreset=False, **sets)
+    batch.reset(0)
+    out = batch.step()
+    while (out["outcome"] == 0).any():
+        out = batch.step()
+    assert wolfpack.batch.OUTCOMES[4] == "cornered"
+    ended = np.flatnonzero(out["outcome"] == 4)
+    assert ended.size > 0
+    assert out["terminated"][ended].all() and not out["truncated"][ended].any()
+    assert (out["cornered_step"][ended, 0] == out["steps"][ended]).all()
+    assert (out["capture_step"][ended, 0] == out["steps"][ended]).all()
+    seed = int(ended[0])  # world e is seeded 0 + e
+    env = wolfpack.parallel_env(learners="wolves", **{**sets, "env.action_mode": "velocity"})
+    env.reset(seed=seed)
+    seen = []
+    while env.agents:
+        _, _, _, _, infos = env.step(env.unwrapped.expert_actions())
+        seen.append(infos["wolf_0"])
+    assert all(type(i["cornered_step"]) is int for i in seen)
+    assert seen[0]["cornered_step"] == -1
+    if seen[-1]["outcome"] == "cornered":  # the expert replays the law to float32 rounding
+        assert seen[-1]["cornered_step"] == seen[-1]["capture_step"] == len(seen)

@@ -262,3 +262,25 @@ def test_human_mode_opens_a_window_on_a_display(tmp_path):
     finally:
         server.terminate()
         server.wait(timeout=10)
+
+
+def test_replay_hides_each_targets_ring_from_its_own_capture_step(tmp_path):
+    """Two still targets captured at steps 17 and 78 (seed 3): the replay of trajectory.npz
+    draws every frame as the live render did, including the first target shown captured (its
+    ring hidden, hollow) from step 17 on while the other is still hunted."""
+    sets = {"world.targets": 2, "policies.targets": "still", "capture.count": 3}
+    out = tmp_path / "run"
+    cli_main(["hunt", "--episodes", "1", "--seed", "3", "--plots", "0", "--out", str(out),
+              *[a for k, v in sets.items() for a in ("--set", f"{k}={v}")]])
+    arrays = wolfpack.logs.load_trajectory(out / "episode_000" / "trajectory.npz")
+    assert arrays["target_capture_step"].tolist() == [78, 17]
+    env = wolfpack.parallel_env(learners="none", render_mode="rgb_array", **sets)
+    env.reset(seed=3)
+    live = [env.render()]
+    while env.unwrapped.world_state()["outcome"] == "running":
+        env.step({})
+        live.append(env.render())
+    replayed = list(render.trajectory_frames(arrays, env.unwrapped.params))
+    assert len(live) == len(replayed) == 79
+    for t, (a, b) in enumerate(zip(live, replayed)):
+        assert np.array_equal(a, b), f"frame {t} differs"
