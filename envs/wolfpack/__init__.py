@@ -4,7 +4,8 @@ Public entry points (see API.md in the project docs):
 
 - :func:`load_params` — read and validate a scenario (``params.yaml`` plus dotted overrides).
 - :func:`run_episodes` — run scripted episodes in parallel (the engine behind ``wolfpack hunt``).
-- :func:`parallel_env` — PettingZoo ``ParallelEnv`` (either side learning).
+- :func:`parallel_env` — PettingZoo ``ParallelEnv`` (either side learning); :func:`env`, the
+  same as an ``AECEnv``.
 - ``gymnasium.make("wolfpack/Escape-v0")`` — one learning target (registered on import).
 - :func:`make_vec_env` — SB3 ``VecEnv`` over the native batch (needs stable-baselines3).
 - :class:`BatchEnv` — the native batch itself.
@@ -14,16 +15,17 @@ Public entry points (see API.md in the project docs):
 from wolfpack._core import __version__
 from wolfpack.config import DEFAULT_PARAMS_PATH, load_params, load_layout
 from wolfpack.episodes import run_episodes, summarize
-from wolfpack.batch import BatchEnv
-from wolfpack.parallel_env import parallel_env
+from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.parallel_env import env, parallel_env
 
 
-def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, **overrides):
+def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, **overrides):
     """An SB3 ``VecEnv`` over the native batch: one slot per learning agent per world (see
-    :mod:`wolfpack.vec_env`). Imports stable-baselines3 on first use."""
+    :mod:`wolfpack.vec_env`); ``learners="all"`` needs ``shared_space=True``. Imports
+    stable-baselines3 on first use."""
     from wolfpack.vec_env import make_vec_env as _make
 
-    return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, **overrides)
+    return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)
 
 
 def _register_gymnasium() -> None:
@@ -43,6 +45,8 @@ __all__ = [
     "run_episodes",
     "summarize",
     "BatchEnv",
+    "OUTCOMES",
     "parallel_env",
+    "env",
     "make_vec_env",
 ]

@@ -43,6 +43,7 @@ class BatchEnv:
     n_targets: int
     wolf_obs_dim: int
     target_obs_dim: int
+    state_dim: int
     params: dict[str, Any]
 
     def __init__(
@@ -62,5 +63,7 @@ class BatchEnv:
         """One step; float32 C-contiguous actions [E, N, 2] / [E, M, 2] for the learning sides."""
     def expert_actions(self) -> tuple[Any, Any]:
         """The scripted laws' actions for the learning sides (None for the others)."""
+    def state(self) -> Any:
+        """Every world's global state, float32 [num_envs, state_dim]."""
     def world_state(self, index: int) -> dict[str, Any]:
         """World ``index``'s state as numpy arrays and lists."""

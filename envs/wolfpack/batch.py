@@ -18,21 +18,100 @@ from wolfpack.config import apply_overrides, load_params
 
 LEARNERS = ("wolves", "targets", "all", "none")
 
-#: ``outcome`` codes of :meth:`BatchEnv.step` → names. ``cornered`` (every target captured or
-#: cornered, at least one cornered) happens only with ``capture.cornered: true``.
+#: The outcome codes → names, for :meth:`BatchEnv.step`'s ``outcome`` array and every env's
+#: ``infos[...]["outcome"]``: 0 ``running``, 1 ``captured`` (every target captured), 2
+#: ``collision`` (a wolf touched an obstacle or a wolf), 3 ``timeout`` (``world.max_steps``), 4
+#: ``cornered`` (every target captured or cornered, at least one cornered; only with
+#: ``capture.cornered: true``). ``wolfpack.OUTCOMES.index("captured")`` gives a code back.
 OUTCOMES = ("running", "captured", "collision", "timeout", "cornered")
+
+
+#: Keyword aliases the env constructors accept for params keys (PettingZoo's name first).
+KEYWORD_ALIASES = {"max_cycles": "world.max_steps"}
+
+
+def dotted_keys(overrides: Mapping[str, Any]) -> dict:
+    """Override keys as dotted params keys: ``world__wolves`` → ``world.wolves``, aliases of
+    :data:`KEYWORD_ALIASES` resolved."""
+    return {KEYWORD_ALIASES.get(k, str(k).replace("__", ".")): v for k, v in overrides.items()}
+
+
+def check_override_keywords(overrides: Mapping[str, Any]) -> None:
+    """Constructor keywords must name params keys: one that names no params key (nor an alias
+    in :data:`KEYWORD_ALIASES`) is a TypeError naming it, as Python does for any unknown
+    keyword argument (libraries such as TorchRL rely on that to retry without it)."""
+    known = _core.default_params()
+    unknown = []
+    for k, key in zip(overrides, dotted_keys(overrides)):
+        node = known
+        for part in key.split("."):
+            node = node.get(part, _MISSING) if isinstance(node, dict) else _MISSING
+        if node is _MISSING:
+            unknown.append(k)
+    if unknown:
+        # Python's own wording for the first, which libraries match on (TorchRL's GymEnv retries
+        # without `frameskip` when it reads "unexpected keyword argument 'frameskip'").
+        also = f" (and {', '.join(repr(k) for k in unknown[1:])})" if len(unknown) > 1 else ""
+        raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}{also}: a keyword names a params key, "
+                        f"with __ for the dots (world__wolves=8) or dotted (**{{'world.wolves': 8}}), or is one of "
+                        f"{', '.join(KEYWORD_ALIASES)}")
+
+
+_MISSING = object()
 
 
 def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Mapping[str, Any]) -> dict:
     """``params`` (None: the documented scenario; a path to YAML; or a dict) with ``overrides``
     applied, validated. Override keys are dotted (``"world.wolves"``) or use ``__`` in place of
-    the dots (``world__wolves=8`` as a keyword argument)."""
-    dotted = {k.replace("__", "."): v for k, v in overrides.items()}
+    the dots (``world__wolves=8`` as a keyword argument); ``max_cycles`` is PettingZoo's name
+    for ``world.max_steps``. An unknown key or a bad value is a ValueError naming the key (the
+    env constructors check their keywords first: :func:`check_override_keywords`)."""
+    dotted = dotted_keys(overrides)
     if params is None or isinstance(params, (str, Path)):
         return load_params(params, dotted)
     if not isinstance(params, Mapping):
         raise ValueError(f"params must be None, a path or a dict, got {type(params).__name__}")
     return _core.validate_params(apply_overrides(dict(params), dotted))
+
+
+class SharedObservation:
+    """One observation layout for every agent (``shared_space=True``, ``learners="all"``), so
+    that one shared policy can drive both sides: D = 2 + (N+M) + max(Dw, Dt) entries —
+
+    ==================  ==========================================================
+    entry               meaning
+    ==================  ==========================================================
+    0                   1 for a wolf, else 0 (the side flag)
+    1                   1 for a target, else 0
+    2 … 2+N+M−1         one-hot agent index: wolves 0..N−1, then targets N..N+M−1
+    2+N+M …             the agent's own observation (as without shared_space),
+                        zero-padded to max(Dw, Dt)
+    ==================  ==========================================================
+    """
+
+    def __init__(self, n: int, m: int, dw: int, dt: int) -> None:
+        self.n, self.m, self.dw, self.dt = n, m, dw, dt
+        self.head = 2 + n + m
+        self.dim = self.head + max(dw, dt)
+        self._template = np.zeros((n + m, self.dim), np.float32)
+        self._template[:n, 0] = 1.0
+        self._template[n:, 1] = 1.0
+        self._template[np.arange(n + m), 2 + np.arange(n + m)] = 1.0
+
+    def pack(self, obs_wolves: np.ndarray, obs_targets: np.ndarray) -> np.ndarray:
+        """[E, N, Dw] and [E, M, Dt] → [E, N+M, D] (a fresh array)."""
+        out = np.repeat(self._template[None], obs_wolves.shape[0], axis=0)
+        out[:, : self.n, self.head : self.head + self.dw] = obs_wolves
+        out[:, self.n :, self.head : self.head + self.dt] = obs_targets
+        return out
+
+
+def check_shared_space(shared_space: Any, learners: str) -> bool:
+    if not isinstance(shared_space, (bool, np.bool_)):
+        raise ValueError(f"shared_space must be True or False, got {shared_space!r}")
+    if shared_space and learners != "all":
+        raise ValueError(f"shared_space=True needs learners='all' (one policy for both sides), got learners={learners!r}")
+    return bool(shared_space)
 
 
 def check_learners(learners: str) -> str:
@@ -63,15 +142,21 @@ def check_action(x: Any, who: str) -> np.ndarray:
     return a
 
 
+_SUCCESS_CODES = (OUTCOMES.index("captured"), OUTCOMES.index("cornered"))
+
+
 def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) -> list[dict]:
     """The info dicts of agents ``lo .. hi`` (wolves 0..N-1, then targets) of every world of a
-    :meth:`BatchEnv.step` output, world-major: ``outcome``, ``capture_step`` (a wolf: the
-    episode's, once it succeeded; a target: its own; else None), ``cornered_step`` (int: the
-    first step at which a target of the world was cornered, −1 if none ever was; the same for
-    every agent), ``energy``, ``collisions``, ``distance``."""
+    :meth:`BatchEnv.step` output, world-major. Every value is a number of one type for the
+    whole episode, so that libraries that stack infos (Gymnasium's vector envs, TorchRL) can:
+    ``outcome`` (int code, :data:`OUTCOMES`), ``capture_step`` (int; a wolf: the step its
+    episode succeeded, a target: its own capture step; −1 until then), ``cornered_step`` (int:
+    the first step at which a target of the world was cornered, −1 if none ever was; the same
+    for every agent), ``energy`` (float, J), ``collisions`` (int, steps in contact),
+    ``distance`` (float, m; NaN for a wolf once no target is left)."""
     # Plain Python lists first (.tolist()): indexing numpy scalars one by one costs several
     # times more than the dicts themselves at 64 worlds x 5 wolves.
-    names = [OUTCOMES[o] for o in out["outcome"].tolist()]
+    codes = out["outcome"].tolist()
     energy = out["energy"][:, lo:hi].tolist()
     collisions = out["collisions"][:, lo:hi].tolist()
     distance = out["distance"][:, lo:hi].tolist()
@@ -80,13 +165,13 @@ def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) 
     wolves_in_range = max(0, min(hi, n_wolves) - lo)
     targets_in_range = slice(max(lo, n_wolves) - n_wolves, max(hi - n_wolves, 0))
     infos = []
-    for e, name in enumerate(names):
-        world_cap = max(caps[e]) if name in ("captured", "cornered") else None
-        cap = [world_cap] * wolves_in_range + [c if c >= 0 else None for c in caps[e][targets_in_range]]
+    for e, code in enumerate(codes):
+        world_cap = max(caps[e]) if code in _SUCCESS_CODES else -1
+        cap = [world_cap] * wolves_in_range + caps[e][targets_in_range]
         seen = [c for c in corners[e] if c >= 0]
         cornered = min(seen) if seen else -1
         infos.extend(
-            {"outcome": name, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
+            {"outcome": code, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
             for c, en, co, d in zip(cap, energy[e], collisions[e], distance[e])
         )
     return infos
@@ -137,6 +222,7 @@ class BatchEnv:
             raise ValueError(f"threads must be None or an integer >= 1, got {threads!r}")
         if not isinstance(seed, (int, np.integer)) or seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        check_override_keywords(overrides)
         self._core = _core.BatchEnv(resolve_params(params, overrides), int(num_envs), learners, int(seed), bool(autoreset), threads)
         self.params: dict = self._core.params
         self.num_envs: int = self._core.num_envs
@@ -144,6 +230,8 @@ class BatchEnv:
         self.n_targets: int = self._core.n_targets
         self.wolf_obs_dim: int = self._core.wolf_obs_dim
         self.target_obs_dim: int = self._core.target_obs_dim
+        #: Entries of one world's global state row (see :meth:`state`).
+        self.state_dim: int = self._core.state_dim
 
     def __reduce__(self):
         # Constructor-argument pickling: the copy is a fresh batch built the same way.
@@ -160,6 +248,15 @@ class BatchEnv:
     def reset(self, seed: int | None = None) -> dict[str, np.ndarray]:
         """Resets every world; with ``seed``, world i is re-seeded ``seed + i``."""
         return self._core.reset(seed)
+
+    def state(self) -> np.ndarray:
+        """Every world's global state for centralised critics, float32 [E, state_dim], every
+        entry in [−1, 1], fixed size for fixed params. Per row, in order: each wolf (x̂, ŷ,
+        cos θ, sin θ, v/v_max, ω/ω_max), each target (the same, then 1 once its hunt ended,
+        else 0), each of the params' K obstacle slots (1, x̂, ŷ, cos φ, sin φ — all 0 when a
+        layout left the slot empty), and t / max_steps; x̂, ŷ map the arena onto [−1, 1]².
+        ValueError when a layout put more obstacles in a world than the params count."""
+        return self._core.state()
 
     def reset_world(self, index: int, seed: int | None = None, layout: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
         """Resets world ``index`` alone (seeded ``seed`` itself), optionally from a LAYOUT."""

@@ -47,6 +47,12 @@ Observation Space
 
     Defaults: D = 50 for a wolf, 51 for a target.
 
+    ``shared_space=True`` (with ``learners="all"`` only) gives every agent one observation
+    space, so that one shared policy can drive both sides (SuperSuit, Tianshou, RLlib's shared
+    policies): D = 2 + (N+M) + max(Dw, Dt) — entry 0 is 1 for a wolf, entry 1 is 1 for a
+    target, then a one-hot agent index over the N+M agents (wolves first), then the agent's own
+    observation above, zero-padded (59 entries by default). Actions and rewards are unchanged.
+
 Rewards (``rewards.*`` in params, per agent and step)
     Wolves: ``−time_penalty`` (0.01); ``+capture_bonus`` (10) to every wolf for each target
     captured this step; ``−collision_penalty`` (10) when its body overlaps an obstacle or a
@@ -63,17 +69,21 @@ Termination / Truncation
     §6: within ``capture.distance`` of a wall, 2+ wolves within it, inside the hull of those
     wolves and its closest wall points) ends like a captured one — rewards included — and an
     episode whose targets all ended, one of them cornered, ends as ``cornered``. A captured
-    target leaves ``agents`` at once (with M > 1 the others play on). ``infos[agent]``:
-    ``outcome`` (running / captured / collision / timeout / cornered), ``capture_step``
-    (target: its own; wolf: the episode's on success, else None), ``cornered_step`` (int, the
-    first step at which a target of the world was cornered, −1 if none ever was), ``energy``
+    target leaves ``agents`` at once (with M > 1 the others play on). ``infos[agent]``, every
+    value a number of one type for the whole episode (so Gymnasium's vector envs and TorchRL
+    can stack them): ``outcome`` (int code: 0 running, 1 captured, 2 collision, 3 timeout, 4
+    cornered — ``wolfpack.OUTCOMES[code]`` is the name), ``capture_step`` (int; target: its
+    own; wolf: the episode's on success; −1 until then), ``cornered_step`` (int, the first step
+    at which a target of the world was cornered, −1 if none ever was), ``energy``
     (Σ ½ m v² so far), ``collisions`` (steps in contact), ``distance`` (wolf: to the nearest
     uncaptured target; target: to the nearest wolf).
 
 Arguments
-    ``parallel_env(params=None, *, learners="wolves", render_mode=None, render_options=None, seed=0, **overrides)``:
+    ``parallel_env(params=None, *, learners="wolves", render_mode=None, render_options=None, seed=0, shared_space=False, **overrides)``:
     ``params`` is None (the documented scenario), a YAML path or a dict; overrides are dotted
-    keys (``**{"world.wolves": 8}``) or ``world__wolves=8``. ``reset(seed=None, options=None)``;
+    keys (``**{"world.wolves": 8}``) or ``world__wolves=8``, and ``max_cycles`` is PettingZoo's
+    name for ``world.max_steps``; a keyword that names no params key is a TypeError, a bad value
+    a ValueError naming the key. ``reset(seed=None, options=None)``;
     ``options={"layout": LAYOUT}`` starts from an explicit state (API.md) with this env's agent
     counts (a polygon with ``"moving": false`` still rotates in place, as SPEC §1.3's static
     polygons do; it does not translate). ``env.unwrapped.world_state()`` and
@@ -99,7 +109,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
+from wolfpack.batch import BatchEnv, SharedObservation, agent_infos, check_action, check_shared_space, rebuild
 from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
 
 def action_box() -> spaces.Box:
@@ -149,9 +159,11 @@ class WolfpackParallelEnv(ParallelEnv):
         render_mode: str | None = None,
         render_options: Mapping[str, Any] | None = None,
         seed: int = 0,
+        shared_space: bool = False,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, **overrides)
+        self._init_kwargs = dict(params=params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, **overrides)
+        self.shared_space = check_shared_space(shared_space, learners)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
         frame_options = FrameOptions(**check_render_options(render_options))
         self._batch = BatchEnv(params, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1, **overrides)
@@ -162,9 +174,15 @@ class WolfpackParallelEnv(ParallelEnv):
         self._targets = [f"target_{j}" for j in range(m)] if self._batch.learns_targets else []
         self.possible_agents = self._wolves + self._targets
         self.agents: list[str] = []
-        self._obs_spaces = {a: observation_box(self._batch.wolf_obs_dim) for a in self._wolves}
-        self._obs_spaces.update({a: observation_box(self._batch.target_obs_dim) for a in self._targets})
+        self._shared = SharedObservation(n, m, self._batch.wolf_obs_dim, self._batch.target_obs_dim) if self.shared_space else None
+        if self._shared is not None:
+            self._obs_spaces = {a: observation_box(self._shared.dim) for a in self.possible_agents}
+        else:
+            self._obs_spaces = {a: observation_box(self._batch.wolf_obs_dim) for a in self._wolves}
+            self._obs_spaces.update({a: observation_box(self._batch.target_obs_dim) for a in self._targets})
         self._act_spaces = {a: action_box() for a in self.possible_agents}
+        #: The space of :meth:`state` (PettingZoo's ``state_space``).
+        self.state_space = spaces.Box(-1.0, 1.0, (self._batch.state_dim,), np.float32)
         # agent name -> (is a wolf, index on its side)
         self._index = {a: (a.startswith("wolf"), int(a.rsplit("_", 1)[1])) for a in self.possible_agents}
         self._seed = seed
@@ -247,6 +265,9 @@ class WolfpackParallelEnv(ParallelEnv):
     def _observations(self, out: dict) -> dict[str, np.ndarray]:
         obs = {}
         active = set(self.agents) if self.agents else set(self.possible_agents)
+        if self._shared is not None:
+            packed = self._shared.pack(out["obs_wolves"], out["obs_targets"])[0]
+            return {a: packed[k] for k, a in enumerate(self.possible_agents) if a in active}
         for i, a in enumerate(self._wolves):
             if a in active:
                 obs[a] = out["obs_wolves"][0, i]
@@ -283,9 +304,13 @@ class WolfpackParallelEnv(ParallelEnv):
         return acts
 
     def state(self) -> np.ndarray:
-        """The global state as one flat float32 vector: wolves and targets (x, y, θ, v, ω)."""
-        s = self.world_state()
-        return np.concatenate([s["wolves"].ravel(), s["targets"].ravel()]).astype(np.float32)
+        """The global state for a centralised critic (CTDE, MAPPO): float32 [state_dim] in
+        ``state_space`` — every agent's pose and speed, the targets' ended flags, the
+        obstacles' poses and the clock (layout: :meth:`wolfpack.BatchEnv.state`). A
+        RuntimeError before ``reset()``."""
+        if not self._started:
+            raise RuntimeError("call reset() before state()")
+        return self._batch.state()[0]
 
     def render(self):
         """``rgb_array``: the current frame, uint8 [H, W, 3] (see :mod:`wolfpack.render`);
@@ -300,3 +325,16 @@ class WolfpackParallelEnv(ParallelEnv):
 def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, **overrides: Any) -> WolfpackParallelEnv:
     """A PettingZoo ``ParallelEnv`` of one world (see this module's docstring)."""
     return WolfpackParallelEnv(params, learners=learners, render_mode=render_mode, **overrides)
+
+
+
+def env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, **overrides: Any):
+    """The same world as a PettingZoo ``AECEnv`` (agents act in turn; the world steps once all
+    active agents have acted): PettingZoo's ``parallel_to_aec`` over :func:`parallel_env`, with
+    the same arguments, spaces, ``state()`` and ``state_space``."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    par = parallel_env(params, learners=learners, render_mode=render_mode, **overrides)
+    aec = parallel_to_aec(par)
+    aec.state_space = par.state_space  # the converter forwards state() but not its space
+    return aec

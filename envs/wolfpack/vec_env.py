@@ -1,18 +1,23 @@
 """A Stable-Baselines3 ``VecEnv`` over the native batch: one slot per learning agent per world.
 
-``make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None)`` builds
-``num_envs`` worlds; with ``learners="wolves"`` there are ``num_envs × N`` slots (slot
-``e·N + i`` is wolf i of world e), with ``"targets"`` ``num_envs × M``. All slots share one
-policy (parameter sharing). Observations, actions and rewards are those of
-:mod:`wolfpack.parallel_env`.
+``make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None,
+shared_space=False)`` builds ``num_envs`` worlds; with ``learners="wolves"`` there are
+``num_envs × N`` slots (slot ``e·N + i`` is wolf i of world e), with ``"targets"`` ``num_envs ×
+M``, and with ``learners="all", shared_space=True`` ``num_envs × (N+M)`` (slot ``e·(N+M) + k``:
+wolves first, then targets) in the shared observation layout of :mod:`wolfpack.parallel_env`
+(side flag, agent one-hot, padded observation). All slots share one policy (parameter
+sharing). Observations, actions and rewards are those of :mod:`wolfpack.parallel_env`.
+``state()`` gives one global-state row per world (for centralised critics).
 
 SB3 semantics, exactly: ``step`` returns fresh arrays; a world that finishes is reset in the
 same step, its slots report ``done`` with ``infos[k]["terminal_observation"]`` (the last
 observation of the finished episode) and ``infos[k]["TimeLimit.truncated"]`` (True when the
 episode hit ``world.max_steps`` without terminating). A target captured while others still
-run (M > 1) keeps its slot with reward 0 until its world ends. Every ``infos[k]`` carries
-``outcome``, ``capture_step``, ``cornered_step``, ``energy``, ``collisions``, ``distance`` (see
-the ParallelEnv).
+run (M > 1) keeps its slot with reward 0 until its world ends. Every ``infos[k]`` carries the
+ParallelEnv's numeric infos — ``outcome`` (int code, ``wolfpack.OUTCOMES``), ``capture_step``
+(−1 until a capture), ``cornered_step``, ``energy``, ``collisions``, ``distance`` — and, here
+only, ``outcome_name`` (the code's name, e.g. ``"captured"``): SB3 keeps infos as a list of
+dicts and never stacks them, so a string cannot trip it.
 
 ``seed(s)`` re-seeds world e with ``s + e`` at the next ``reset``; results never depend on
 ``threads``. ``get_attr``/``set_attr``/``env_method`` act on per-slot views that know their
@@ -28,7 +33,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-from wolfpack.batch import BatchEnv, agent_infos, rebuild
+from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild
 from wolfpack.parallel_env import action_box, observation_box
 
 
@@ -59,24 +64,29 @@ class WolfpackVecEnv(VecEnv):
         learners: str = "wolves",
         seed: int = 0,
         threads: int | None = None,
+        shared_space: bool = False,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, **overrides)
-        if learners not in ("wolves", "targets"):
+        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)
+        if learners not in ("wolves", "targets", "all"):
+            raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'all' (with shared_space=True), got {learners!r}")
+        if learners == "all" and shared_space is not True:
             raise ValueError(
-                f"make_vec_env learners must be 'wolves' or 'targets', got {learners!r} "
-                "(the two sides have different observation spaces; train them with two VecEnvs or use parallel_env)"
+                "make_vec_env(learners='all') needs shared_space=True: the two sides have different observation "
+                "sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
             )
+        check_shared_space(shared_space, learners)
         self.batch = BatchEnv(params, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, **overrides)
         self.learners = learners
         self.worlds = self.batch.num_envs
-        self.per_world = self.batch.n_wolves if learners == "wolves" else self.batch.n_targets
-        self._side = "wolves" if learners == "wolves" else "targets"
-        self._offset = 0 if learners == "wolves" else self.batch.n_wolves
-        prefix = "wolf" if learners == "wolves" else "target"
-        self._agents = [f"{prefix}_{i}" for i in range(self.per_world)]
+        n, m = self.batch.n_wolves, self.batch.n_targets
+        self.per_world = {"wolves": n, "targets": m, "all": n + m}[learners]
+        self._side = learners
+        self._offset = n if learners == "targets" else 0
+        self._agents = ([f"wolf_{i}" for i in range(n)] if learners != "targets" else []) + ([f"target_{j}" for j in range(m)] if learners != "wolves" else [])
         self._views = [_SlotView(self, e, a) for e in range(self.worlds) for a in self._agents]
-        dim = self.batch.wolf_obs_dim if learners == "wolves" else self.batch.target_obs_dim
+        self._shared = SharedObservation(n, m, self.batch.wolf_obs_dim, self.batch.target_obs_dim) if learners == "all" else None
+        dim = {"wolves": self.batch.wolf_obs_dim, "targets": self.batch.target_obs_dim, "all": self._shared.dim if self._shared else 0}[learners]
         self._next_seed: int | None = seed
         self._actions: np.ndarray | None = None
         super().__init__(self.worlds * self.per_world, observation_box(dim), action_box())
@@ -99,7 +109,7 @@ class WolfpackVecEnv(VecEnv):
         out = self.batch.reset(self._next_seed)
         self._next_seed = None
         self.reset_infos = self._infos(out, final=False)
-        return self._flat(out[f"obs_{self._side}"])
+        return self._obs(out)
 
     def step_async(self, actions: np.ndarray) -> None:
         a = np.asarray(actions)
@@ -117,9 +127,18 @@ class WolfpackVecEnv(VecEnv):
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async()")
         actions, self._actions = self._actions, None
-        out = self.batch.step(actions, None) if self._side == "wolves" else self.batch.step(None, actions)
-        obs = self._flat(out[f"obs_{self._side}"])
-        rewards = out[f"rewards_{self._side}"].reshape(-1).astype(np.float32, copy=False)
+        n = self.batch.n_wolves
+        if self._side == "wolves":
+            out = self.batch.step(actions, None)
+        elif self._side == "targets":
+            out = self.batch.step(None, actions)
+        else:
+            out = self.batch.step(actions[:, :n], actions[:, n:])
+        obs = self._obs(out)
+        if self._side == "all":
+            rewards = np.concatenate([out["rewards_wolves"], out["rewards_targets"]], axis=1).reshape(-1).astype(np.float32, copy=False)
+        else:
+            rewards = out[f"rewards_{self._side}"].reshape(-1).astype(np.float32, copy=False)
         done_world = out["terminated"] | out["truncated"]
         dones = np.repeat(done_world, self.per_world)
         infos = self._infos(out, final=True)
@@ -143,25 +162,42 @@ class WolfpackVecEnv(VecEnv):
 
     # --- extras -----------------------------------------------------------------------------
 
+    def state(self) -> np.ndarray:
+        """Every world's global state, float32 [worlds, state_dim] — one row per world, not per
+        slot (layout: :meth:`wolfpack.BatchEnv.state`); slot k belongs to world
+        ``k // per_world``. For centralised critics."""
+        return self.batch.state()
+
     def expert_actions(self) -> np.ndarray:
         """The scripted law's actions for every slot, [num_envs, 2] float32 (for imitation)."""
         wa, ta = self.batch.expert_actions()
+        if self._side == "all":
+            return self._flat(np.concatenate([wa, ta], axis=1))
         return self._flat(wa if self._side == "wolves" else ta)
 
     def _flat(self, a: np.ndarray) -> np.ndarray:
         return a.reshape(self.worlds * self.per_world, *a.shape[2:])
 
+    def _obs(self, out: dict, prefix: str = "obs") -> np.ndarray:
+        """This VecEnv's observations of ``out`` ([slots, D]); ``prefix="final_obs"`` for the
+        last observations of finished episodes."""
+        if self._shared is not None:
+            return self._flat(self._shared.pack(out[f"{prefix}_wolves"], out[f"{prefix}_targets"]))
+        return self._flat(out[f"{prefix}_{self._side}"])
+
     def _infos(self, out: dict, final: bool) -> list[dict]:
         infos = agent_infos(out, self.batch.n_wolves, self._offset, self._offset + self.per_world)
+        for info in infos:
+            info["outcome_name"] = OUTCOMES[info["outcome"]]
         if final:
             done = out["terminated"] | out["truncated"]
             if done.any():
-                final_obs = out[f"final_obs_{self._side}"]
+                final_obs = self._obs(out, "final_obs")
                 for e in np.flatnonzero(done).tolist():
                     truncated = bool(out["truncated"][e] and not out["terminated"][e])
                     for i in range(self.per_world):
                         info = infos[e * self.per_world + i]
-                        info["terminal_observation"] = final_obs[e, i]
+                        info["terminal_observation"] = final_obs[e * self.per_world + i]
                         info["TimeLimit.truncated"] = truncated
         return infos
 
@@ -174,7 +210,8 @@ def make_vec_env(
     learners: str = "wolves",
     seed: int = 0,
     threads: int | None = None,
+    shared_space: bool = False,
     **overrides: Any,
 ) -> WolfpackVecEnv:
     """An SB3 ``VecEnv`` of ``num_envs`` worlds (see this module's docstring)."""
-    return WolfpackVecEnv(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, **overrides)
+    return WolfpackVecEnv(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)

@@ -198,6 +198,21 @@ impl BatchEnv {
     pub fn world(&self, e: usize) -> Option<&World> {
         self.slots.get(e).map(|s| &s.world)
     }
+    /// Entries in one world's global state row ([`crate::state`]).
+    pub fn state_dim(&self) -> usize {
+        crate::state::state_dim(&self.params)
+    }
+
+    /// Every world's global state, [E, state_dim] row-major ([`crate::state`] has the layout).
+    pub fn state(&self) -> Result<Vec<f32>> {
+        let d = self.state_dim();
+        let mut out = vec![0.0f32; self.slots.len() * d];
+        for (s, row) in self.slots.iter().zip(out.chunks_mut(d)) {
+            crate::state::write_state(&s.world, &self.params, row)?;
+        }
+        Ok(out)
+    }
+
     /// Seed of world `e` and the index of its current episode under that seed.
     pub fn world_seed(&self, e: usize) -> Option<(u64, u64)> {
         self.slots.get(e).map(|s| (s.seed, s.episode))

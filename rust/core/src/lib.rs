@@ -13,6 +13,7 @@ pub mod observe;
 pub mod policies;
 pub mod render;
 pub mod reward;
+pub mod state;
 pub mod world;
 
 pub use config::Params;

@@ -383,6 +383,17 @@ impl PyBatchEnv {
         Ok((w, t))
     }
 
+    /// Every world's global state, float32 [E, state_dim] (layout: wolfpack_core::state).
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self.inner.state().map_err(value_error)?;
+        array(py, rows, &[self.inner.num_envs(), self.inner.state_dim()])
+    }
+
+    #[getter]
+    fn state_dim(&self) -> usize {
+        self.inner.state_dim()
+    }
+
     /// World `index`'s state: wolves [N, 5] and targets [M, 5] (x, y, θ, v, ω), energy [N+M],
     /// interaction [(N+M), (N+M)] uint8, captured [M], cornered [M] (ever cornered), obstacles (list of dicts: kind, moving,
     /// center, radius, angle, vertices [world], local [at angle 0]), step,
