@@ -83,3 +83,15 @@ def test_render_benchmark_runs_and_compares_with_mpe2() -> None:
     assert r["wolfpack"]["shape"] == r["mpe2"]["shape"] == [700, 700, 3], "same resolution on both sides"
     assert r["wolfpack"]["frames_per_second"] > 0 and r["mpe2"]["frames_per_second"] > 0
     assert r["ratio_vs_mpe2"] > 0 and r["video"]["frames"] > 1
+
+
+def test_stacks_benchmark_runs_every_stack():
+    """benchmarks/stacks.py --quick: every row reports a positive rate (no thresholds)."""
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "stacks.py"
+    done = subprocess.run([sys.executable, str(script), "--quick", "--json", "--num-envs", "2"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    rows = json.loads(done.stdout)["rows"]
+    assert len(rows) == 7
+    for r in rows:
+        assert "skipped" not in r, r
+        assert r["env_steps"] > 0 and r["env_steps_per_second"] > 0, r
