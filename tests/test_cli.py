@@ -378,3 +378,16 @@ def test_cornered_targets_are_counted_and_end_episodes_only_when_asked(cli, tmp_
     assert str(arrays["outcome"]) == "cornered"
     assert int(arrays["cornered_step"]) == details[k]["steps"] == int(arrays["target_capture_step"][0])
     assert int(arrays["capture_step"]) == -1
+
+
+def test_version_and_python_dash_m(cli):
+    import subprocess
+    import sys
+
+    import wolfpack
+
+    done = cli("--version")
+    assert done.returncode == 0 and done.stdout.strip() == f"wolfpack {wolfpack.__version__}"
+    as_module = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--episodes", "1", "--json"], capture_output=True, text=True, timeout=120)
+    assert as_module.returncode == 0, as_module.stderr
+    assert json.loads(as_module.stdout)["episodes"] == 1

@@ -15,8 +15,8 @@ INFO_TYPES = {"outcome": int, "capture_step": int, "cornered_step": int, "energy
 
 
 def test_parallel_env_infos_keep_one_numeric_type_per_key_for_the_whole_episode():
-    """Every info value is a number of the same type from reset to the end (before issue 14,
-    capture_step was None until a capture and outcome a string, which Gymnasium's vector envs
+    """Every info value is a number of the same type from reset to the end (capture_step once
+    was None until a capture and outcome a string, which Gymnasium's vector envs
     and TorchRL cannot stack)."""
     env = wolfpack.parallel_env(learners="all", **{"policies.wolves": "seed000"})
     for seed in (0, 3):

@@ -148,6 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="run 'wolfpack hunt --help', 'wolfpack replay --help' or 'wolfpack bench --help' for details.",
     )
+    parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench}", parser_class=_Parser)
 
     hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
