@@ -283,3 +283,15 @@ def test_published_models_reload_and_reproduce_results_md():
     # (b) imitation >= 80 % of seed000's capture rate; fine-tuned wolves capture sooner (median)
     assert rows["wolves_bc_vel_b"]["capture_rate"] >= 0.8 * scripted["capture_rate"]
     assert rows["wolves_ft"]["median_capture_steps"] < scripted["median_capture_steps"]
+
+
+def test_evaluations_and_checkpoints_fall_on_rollout_boundaries(tmp_path):
+    """--eval-freq 1 and --checkpoint-freq 1 with PPO rollouts of 16 steps x 4 slots: one
+    evaluation and one checkpoint per rollout (the policy changes only between rollouts), never
+    the same parameters twice."""
+    out = tmp_path / "run"
+    assert train.main(["--side", "targets", "--algo", "ppo", "--timesteps", "256", "--seed", "1", "--out", str(out), "--eval-freq", "1", "--checkpoint-freq", "1", *TINY_PPO]) == 0
+    steps = [h["timesteps"] for h in json.loads((out / "evaluations.json").read_text())]
+    assert steps == [0, 64, 128, 192, 256], steps  # before learning, at each later rollout, the final model
+    saved = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("model_*_steps.zip"))
+    assert saved == [64, 128, 192], saved

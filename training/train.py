@@ -14,10 +14,12 @@ Writes into --out (created if missing):
                        written first; evaluate.py and --init-from read it
   model.zip            the final model (SB3 ``PPO.load``/``SAC.load``)
   best_model.zip       the model with the best held-out mean return so far
-  checkpoints/         model_<timesteps>_steps.zip every --checkpoint-freq timesteps
+  checkpoints/         model_<timesteps>_steps.zip every --checkpoint-freq timesteps (at the next
+                       rollout boundary: never the same parameters twice)
   progress.csv, events.out.tfevents.*   SB3's logs (CSV and TensorBoard: tensorboard --logdir DIR)
   evaluations.json     the held-out evaluations (capture rate with its 95 % interval, capture
-                       steps, returns, ...) every --eval-freq timesteps
+                       steps, returns, ...) every --eval-freq timesteps, at the next rollout
+                       boundary (PPO: every n_steps × slots timesteps at most)
   learning_curve.png   held-out capture rate and training return against timesteps
   train_summary.json   wall time; time inside the environment and its share of training (held-out
                        evaluations excluded); rollout collection vs gradient updates; throughput;
@@ -109,9 +111,13 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
             self._evaluate()
             self.seconds_before_rollouts = self.seconds  # the others run inside rollout collection
 
-        def _on_step(self) -> bool:
+        def _on_rollout_start(self) -> None:
+            # Between rollouts the policy has just been updated: evaluating there (and only
+            # there) never evaluates the same parameters twice, whatever --eval-freq says.
             if self.num_timesteps - self.last >= self.freq:
                 self._evaluate()
+
+        def _on_step(self) -> bool:
             if deadline is not None and time.perf_counter() > deadline:
                 return False  # --time-limit: SB3 ends learn() here
             return True
@@ -138,6 +144,30 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
 
     deadline = None if args.time_limit is None else time.perf_counter() + 60 * args.time_limit
     return HeldOutEvaluation(args.eval_freq or max(1, args.timesteps // 10), args.eval_episodes)
+
+
+def rollout_checkpoints(freq: int, folder: Path):
+    """``checkpoints/model_<timesteps>_steps.zip`` at the first rollout boundary after every
+    ``freq`` timesteps: between rollouts the policy has just changed, so no two checkpoints hold
+    the same parameters (SB3's CheckpointCallback counts env steps and, with PPO's long
+    rollouts, wrote the same model several times)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class RolloutCheckpoints(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.last = 0
+
+        def _on_rollout_start(self) -> None:
+            if self.num_timesteps - self.last >= freq:
+                self.last = self.num_timesteps
+                folder.mkdir(parents=True, exist_ok=True)
+                self.model.save(folder / f"model_{self.num_timesteps}_steps.zip")
+
+        def _on_step(self) -> bool:
+            return True
+
+    return RolloutCheckpoints()
 
 
 def phase_timer():
@@ -252,7 +282,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
     import torch
-    from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecMonitor
@@ -290,7 +319,7 @@ def main(argv: list[str] | None = None) -> int:
     evaluation = held_out_evaluation(args.side, params, out, args)
     ckpt_freq = args.checkpoint_freq or max(1, args.timesteps // 5)
     phases = phase_timer()
-    callbacks = [phases, evaluation, CheckpointCallback(save_freq=max(1, ckpt_freq // env.num_envs), save_path=str(out / "checkpoints"), name_prefix="model")]
+    callbacks = [phases, evaluation, rollout_checkpoints(ckpt_freq, out / "checkpoints")]
 
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.timesteps, callback=callbacks, progress_bar=not args.no_progress)
