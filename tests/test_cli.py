@@ -287,11 +287,14 @@ def test_a_failed_rerun_leaves_no_summary_behind(cli, tmp_path):
     # Invalid parameters: caught before DIR is touched, the earlier run's files stay as they were.
     assert_clean_failure(cli("hunt", "--out", out, "--set", "world.ts=0"), "world.ts")
     assert (out / "summary.json").exists()
-    # Valid parameters whose spawn fails while running: the earlier summary must not survive to
-    # pass for this run's.
-    assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, "--set", "obstacles.static_polygons=500"), "spawn")
+    # A used folder is refused without --force, and nothing in it is touched.
+    assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, *SHORT), "--force")
+    assert (out / "summary.json").exists()
+    # --force with valid parameters whose spawn fails while running: the earlier run's files
+    # are gone first, so its summary cannot pass for this run's.
+    assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, "--force", "--set", "obstacles.static_polygons=500"), "spawn")
     assert not (out / "summary.json").exists()
-    rerun = cli("hunt", "--episodes", "2", "--plots", "0", "--seed", "9", "--out", out, *SHORT)
+    rerun = cli("hunt", "--episodes", "2", "--plots", "0", "--seed", "9", "--out", out, "--force", *SHORT)
     assert rerun.returncode == 0
     assert json.loads((out / "summary.json").read_text())["seed"] == 9
 
@@ -391,3 +394,16 @@ def test_version_and_python_dash_m(cli):
     as_module = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--episodes", "1", "--json"], capture_output=True, text=True, timeout=120)
     assert as_module.returncode == 0, as_module.stderr
     assert json.loads(as_module.stdout)["episodes"] == 1
+
+
+def test_force_replaces_an_earlier_run_and_keeps_other_files(cli, tmp_path):
+    """A 2-episode run after a 3-episode one in the same folder, with --force: no episode_002 of
+    the old run beside the new summary; a user's own file stays."""
+    out = tmp_path / "out"
+    assert cli("hunt", "--episodes", "3", "--plots", "0", "--out", out, *SHORT).returncode == 0
+    (out / "notes.txt").write_text("mine")
+    assert cli("hunt", "--episodes", "2", "--plots", "0", "--seed", "5", "--out", out, "--force", *SHORT).returncode == 0
+    assert sorted(p.name for p in out.glob("episode_*")) == ["episode_000", "episode_001"]
+    assert json.loads((out / "summary.json").read_text())["seed"] == 5
+    assert (out / "notes.txt").read_text() == "mine"
+    assert not list(out.rglob(".*.tmp"))

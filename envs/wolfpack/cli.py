@@ -65,7 +65,8 @@ Output on stdout: a short table, or with --json one JSON object with the keys
   median_capture_steps (over captured episodes; null if none), mean_energy (J, total of sum 1/2 m v^2 over all agents per
   episode), env_steps_per_second (simulated steps / wall time spent simulating), total_steps.
 
-With --out DIR (created after the input has been checked):
+With --out DIR (created after the input has been checked; a new or empty folder, or --force to
+replace an earlier run's files there; a run stopped early leaves no summary.json):
   DIR/summary.json                    the --json summary plus params (resolved), seed, command,
                                       and episodes_detail (per episode: seed, outcome, steps,
                                       capture_step, cornered_step, energy and collisions per
@@ -163,7 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "--set world.border=[-5,-5,5,5]; repeatable")
     hunt.add_argument("--layout", metavar="FILE", help="start every episode from this explicit state (JSON, schema below); "
                                                        "agent counts come from the layout")
-    hunt.add_argument("--out", metavar="DIR", help="write summary.json, per-episode trajectory.npz and plots under DIR")
+    hunt.add_argument("--out", metavar="DIR", help="write summary.json, per-episode trajectory.npz and plots under DIR "
+                                                   "(a new or empty folder, unless --force)")
+    hunt.add_argument("--force", action="store_true", help="with --out DIR holding an earlier run: delete that run's files "
+                                                           "(summary.json, summary.png, episode_*/) first; other files are kept")
     hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
                       help="with --out, draw trajectory.png, curves.png and interaction.png (and with --video episode.mp4) for the first N episodes only (default: 20; "
                            "0: none); summary.png and every trajectory.npz are always written")
@@ -265,6 +269,20 @@ class RunWriter:
         logs.write_json_atomic(self.out / logs.SUMMARY_NAME, summary)
 
 
+def clear_run(out: Path) -> None:
+    """``--force``: deletes what ``wolfpack hunt --out`` writes (summary.json and its temporary,
+    summary.png, episode_NNN/ folders), so that no episode of an earlier run sits beside this
+    run's; anything else in ``out`` is left alone."""
+    import re
+    import shutil
+
+    for name in (logs.SUMMARY_NAME, f".{logs.SUMMARY_NAME}.tmp", "summary.png"):
+        (out / name).unlink(missing_ok=True)
+    for child in out.iterdir():
+        if child.is_dir() and re.fullmatch(r"episode_\d{3,}", child.name):
+            shutil.rmtree(child)
+
+
 def _cores() -> int:
     """Cores this process may use (what the core's thread pool uses by default)."""
     try:
@@ -344,6 +362,10 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
         raise ValueError("--video needs --out DIR (the videos are written there, one per episode)")
     if out is not None and out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
+    if out is not None and out.is_dir() and any(out.iterdir()):
+        if not args.force:
+            raise ValueError(f"--out {out}: not empty (an earlier run?); choose a new folder, or add --force to replace the earlier run's files")
+        clear_run(out)
     writer = RunWriter(out, resolved, args.plots, args.video) if out is not None else None
     results, seconds = simulate(args, params, layout, writer.episode if writer else lambda k, r: None)
     summary = summarize(results, seconds)
@@ -501,7 +523,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         where = f" {e.filename}" if e.filename else ""
         sys.exit(_fail(EXIT_IO, f"error:{where}: {e.strerror or _one_line(e)}"))
     except KeyboardInterrupt:
-        sys.exit(_fail(EXIT_INTERRUPTED, "interrupted"))
+        out = getattr(args, "out", None) if args.command == "hunt" else None
+        where = f"; no summary.json was written, {out} holds only the episodes finished so far" if out else ""
+        sys.exit(_fail(EXIT_INTERRUPTED, f"interrupted{where}"))
 
 
 def _fail(status: int, message: str) -> int:

@@ -104,8 +104,14 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
 
 
 def write_trajectory(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
-    """Writes ``trajectory.npz`` (compressed: the interaction matrices are mostly zeros)."""
-    np.savez_compressed(path, **arrays)
+    """Writes ``trajectory.npz`` (compressed: the interaction matrices are mostly zeros) under a
+    temporary name first, then renames it: an interrupted write never leaves a file that looks
+    like a trajectory."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as f:
+        np.savez_compressed(f, **arrays)
+    os.replace(tmp, path)
 
 
 def load_trajectory(path: Path) -> dict[str, np.ndarray]:
