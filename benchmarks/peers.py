@@ -12,7 +12,7 @@ Measures, in this order:
    process. An env-step is one ``env.step(actions)`` call moving every agent. Also timed: the
    same world's ``world.step()`` alone (physics without observations, rewards or wrappers).
 3. **VMAS** ``simple_tag`` with the same counts, only if ``vmas`` (and torch) is importable.
-4. The **published Python reference implementation**'s figure (SPEC.md §8), quoted, not measured.
+4. The **published Python reference implementation**'s figure (docs/world-and-laws.md §1.7), quoted, not measured.
 
 Usage::
 
@@ -38,9 +38,9 @@ from typing import Any, Callable
 # mpe2 imports pygame, which otherwise prints a banner on stdout.
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-# SPEC.md §8: the published Python reference implementation on the source scenario.
+# docs/world-and-laws.md §1.7: the published Python reference implementation on the source scenario.
 REFERENCE = {
-    "name": "published Python reference implementation (SPEC.md §8, quoted, not measured)",
+    "name": "published Python reference implementation (docs/world-and-laws.md §1.7, quoted, not measured)",
     "env_steps_per_second": 42.0,
     "first_snapshot_range": [40.0, 45.0],
     "latest_snapshot_range": [115.0, 155.0],

@@ -328,3 +328,14 @@ def test_cornered_episodes_terminate_and_infos_carry_the_cornered_step():
     assert seen[0]["cornered_step"] == -1
     if wolfpack.OUTCOMES[seen[-1]["outcome"]] == "cornered":  # the expert replays the law to float32 rounding
         assert seen[-1]["cornered_step"] == seen[-1]["capture_step"] == len(seen)
+
+
+def test_help_shows_the_environment_specification():
+    """help(wolfpack.parallel_env) and help(wolfpack.make_vec_env) show the specification, not a
+    one-line wrapper docstring (the functions hide their modules of the same name)."""
+    import pydoc
+
+    text = pydoc.render_doc(wolfpack.parallel_env)
+    for needle in ("Observation Space", "Rewards", "Termination", "seed000", "bvc", "formation", "shared_space"):
+        assert needle in text, needle
+    assert "Sizing PPO" in pydoc.render_doc(wolfpack.make_vec_env)

@@ -10,7 +10,7 @@ with its 95 % Wilson interval, median and mean capture steps (over captured epis
 collision rate (episodes ended by a wolf collision), target collision rate (episodes in which a
 target touched an obstacle), timeout rate, cornered rate (episodes ended as ``cornered``: only
 with ``--set capture.cornered=true``), success rate (captured + cornered), the share of episodes
-in which the target was ever cornered (SPEC §6; counted whether or not that ends an episode),
+in which the target was ever cornered (world-and-laws §1.7; counted whether or not that ends an episode),
 mean energy (J per episode, all agents), mean
 return per agent of each side (the env's rewards, undiscounted), and the median distance of the
 target to the nearest wall when the episode ended (pinned to a wall, a target is hard to ring).

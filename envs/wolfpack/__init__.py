@@ -1,6 +1,6 @@
 """wolfpack: multi-agent pursuit–evasion (wolf-pack hunting) with a Rust core.
 
-Public entry points (see API.md in the project docs):
+Public entry points (docs/interface.md in the repository has the whole interface):
 
 - :func:`load_params` — read and validate a scenario (``params.yaml`` plus dotted overrides).
 - :func:`run_episodes` — run scripted episodes in parallel (the engine behind ``wolfpack hunt``).
@@ -26,6 +26,19 @@ def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=No
     from wolfpack.vec_env import make_vec_env as _make
 
     return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)
+
+
+def _vec_env_docstring() -> str:
+    """The docstring of :mod:`wolfpack.vec_env`, read without importing it (that would import
+    stable-baselines3 and torch)."""
+    import ast
+    from pathlib import Path
+
+    source = Path(__file__).with_name("vec_env.py").read_text(encoding="utf-8")
+    return ast.get_docstring(ast.parse(source)) or ""
+
+
+make_vec_env.__doc__ = f"{make_vec_env.__doc__}\n\n{_vec_env_docstring()}"
 
 
 def _register_gymnasium() -> None:

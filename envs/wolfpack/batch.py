@@ -278,7 +278,7 @@ class BatchEnv:
         return self._core.expert_actions()
 
     def world_state(self, index: int = 0) -> dict[str, Any]:
-        """World ``index``'s full state (see API.md ``world_state``)."""
+        """World ``index``'s full state (see ``WolfpackParallelEnv.world_state``)."""
         return self._core.world_state(index)
 
 

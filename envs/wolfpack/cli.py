@@ -1,5 +1,6 @@
-"""The ``wolfpack`` command line: ``wolfpack hunt`` (scripted episodes, logs, plots) and
-``wolfpack bench`` (throughput of scripted stepping). ``wolfpack hunt --help`` explains it all.
+"""The ``wolfpack`` command line: ``wolfpack hunt`` (scripted episodes, logs, plots), ``wolfpack
+replay`` (a saved episode re-rendered to video and plots) and ``wolfpack bench`` (throughput of
+scripted stepping). ``wolfpack hunt --help`` explains it all.
 
 Every failure is one line on stderr and an exit status, never a traceback:
 
@@ -32,18 +33,18 @@ from wolfpack.episodes import run_episodes, summarize
 PROG = "wolfpack"
 EXIT_INPUT, EXIT_INTERNAL, EXIT_IO, EXIT_INTERRUPTED = 2, 3, 1, 130
 
-JSON_KEYS = ("episodes", "capture_rate", "collision_rate", "timeout_rate", "cornered_rate", "success_rate", "cornered_episodes", "median_capture_steps", "mean_energy", "env_steps_per_second")
+JSON_KEYS = ("episodes", "capture_rate", "collision_rate", "timeout_rate", "cornered_rate", "success_rate", "cornered_episodes", "median_capture_steps", "mean_energy", "env_steps_per_second", "total_steps")
 
 HUNT_DESCRIPTION = """\
 Run scripted episodes of the wolf-pack hunt and report how they ended.
 
-The scenario (params.yaml, SPEC.md §1): N unicycle wolves hunt M targets in a rectangular
+The scenario (params.yaml; docs/world-and-laws.md in the repository): N unicycle wolves hunt M targets in a rectangular
 arena with static and moving circles and rotating, drifting irregular polygons. Default: a
 20 m x 20 m arena, Ts = 0.1 s, at most 300 steps, 5 wolves, 1 target, 12 obstacles.
 Wolf laws (--wolves): seed000 (attraction + tangential repulsion + heading-based avoidance,
-SPEC §3-4), bvc (buffered Voronoi cells + Hungarian assignment of hunting points, SPEC §6;
+world-and-laws §3-4), bvc (buffered Voronoi cells + Hungarian assignment of hunting points, world-and-laws §6;
 parameters bvc.*) or formation (obstacle graph, virtual leader on the shortest path,
-potential-field formation, SPEC §7; parameters formation.*). Target laws (--targets):
+potential-field formation, world-and-laws §7; parameters formation.*). Target laws (--targets):
 escape, random, still. Each episode ends as
   captured   every target has capture.count wolves (default 4) within capture.distance (0.8 m)
              (capture.rule: count; encircle also asks that it lie inside their convex hull;

@@ -70,7 +70,8 @@ def load_params(path: str | Path | None = None, overrides: Mapping[str, Any] | N
         overrides: dotted keys to set, e.g. ``{"world.wolves": 8, "policies.targets": "still"}``.
 
     Returns:
-        The complete parameter dict with derived values resolved (``capture.count``).
+        The complete, validated parameter dict (``capture.count`` stays ``None`` when left
+        to derive; the envs' ``params`` and ``_core.validate_params(p, resolve=True)`` fill it in).
 
     Raises:
         ValueError: unreadable file, invalid YAML, unknown key, wrong type, value out of range —
@@ -87,7 +88,7 @@ def load_params(path: str | Path | None = None, overrides: Mapping[str, Any] | N
 
 
 def load_layout(path: str | Path) -> dict:
-    """Reads an explicit layout (JSON, or YAML) — the LAYOUT schema of API.md. Shape checks
+    """Reads an explicit layout (a JSON file) — the layout format of docs/interface.md. Shape checks
     happen when it is used (:func:`wolfpack.run_episodes` / ``_core.check_layout``)."""
     text_path = Path(path)
     try:

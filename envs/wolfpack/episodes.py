@@ -28,7 +28,7 @@ def run_episodes(
     Each result holds ``seed``, ``outcome`` (``captured`` / ``collision`` / ``timeout``, and
     ``cornered`` with ``capture.cornered``), ``steps``, ``capture_step`` (or ``None``),
     ``target_capture_steps`` [M] (each target's, or ``None``), ``cornered_step`` (the first step
-    a target was cornered, SPEC §6, or ``None``), ``wolves`` N, ``targets`` M, ``energy`` [N+M]
+    a target was cornered, world-and-laws §1.7, or ``None``), ``wolves`` N, ``targets`` M, ``energy`` [N+M]
     (J, Σ ½ m v² per step), ``collisions`` [N+M] (steps spent overlapping), and with
     ``record=True`` a ``trajectory`` dict of arrays (see :mod:`wolfpack.logs`).
 
@@ -56,7 +56,7 @@ def run_episodes(
 
 
 def summarize(results: Iterable[dict[str, Any]], elapsed_s: float | None = None) -> dict:
-    """The ``--json`` summary of API.md: episodes, capture/collision/timeout rates, the
+    """The ``wolfpack hunt --json`` summary: episodes, capture/collision/timeout rates, the
     cornered rate (episodes ended as ``cornered``, only with ``capture.cornered``), the success
     rate (captured + cornered), ``cornered_episodes`` (episodes in which a target was ever
     cornered, whether or not that ended them), median capture steps (over captured episodes;

@@ -1,4 +1,4 @@
-"""Output files of ``wolfpack hunt --out DIR`` (SPEC §8 logs).
+"""Output files of ``wolfpack hunt --out DIR`` (world-and-laws §1.7 logs).
 
 Layout of ``DIR``::
 
@@ -29,7 +29,7 @@ key                    dtype, shape         meaning
                                             cornered where that counts), -1 if it did not;
                                             from that step on it is drawn as captured
 ``cornered_step``      int64 scalar         first step at which a target was cornered
-                                            (SPEC §6), -1 if none ever was
+                                            (world-and-laws §6), -1 if none ever was
 ``seed``               uint64 scalar        the episode's seed
 ``obstacle_poses``     float64 [T+1, K, 3]  centre x, y and rotation angle
 ``obstacle_kind``      str [K]              static_circle, moving_circle, static_polygon,

@@ -5,15 +5,15 @@ This docstring is the environment's specification.
 Agents
     ``wolf_0 … wolf_{N-1}`` and ``target_0 … target_{M-1}``; only the learning side's agents
     (``learners``) are PettingZoo agents, the other side follows its scripted law inside the
-    core (``policies.wolves``: ``seed000``; ``policies.targets``: ``escape``, ``random``,
-    ``still``). Defaults (``params.yaml``): 5 wolves, 1 target, 12 obstacles, 20 m × 20 m arena,
+    core (``policies.wolves``: ``seed000``, ``bvc`` or ``formation``; ``policies.targets``:
+    ``escape``, ``random``, ``still``; the laws: docs/world-and-laws.md §3–§7). Defaults (``params.yaml``): 5 wolves, 1 target, 12 obstacles, 20 m × 20 m arena,
     Ts = 0.1 s, 300 steps.
 
 Action Space
     ``Box(-1, 1, (2,), float32)`` per agent; values outside [-1, 1] are clipped, NaN/inf raise
     ``ValueError``. ``env.action_mode: unicycle`` (default): ``v = (a₀+1)/2 · v_max``,
     ``ω = a₁ · ω_max``. ``velocity``: ``a`` is a desired velocity in the agent's frame (x ahead,
-    y left) in units of v_max, norm capped at 1, turned into (v, ω) by the saturator of SPEC §2
+    y left) in units of v_max, norm capped at 1, turned into (v, ω) by the saturator of world-and-laws §2
     exactly as the analytic laws are. Every move then passes the world's feasibility filter, and
     a target's speed is capped by the fatigue curve from its first sighting on.
 
@@ -65,8 +65,8 @@ Rewards (``rewards.*`` in params, per agent and step)
 
 Termination / Truncation
     Terminated when every target is captured (success) or a wolf collides (failure);
-    truncated at ``world.max_steps``. With ``capture.cornered: true`` a cornered target (SPEC
-    §6: within ``capture.distance`` of a wall, 2+ wolves within it, inside the hull of those
+    truncated at ``world.max_steps``. With ``capture.cornered: true`` a cornered target (
+    world-and-laws §1.7: within ``capture.distance`` of a wall, 2+ wolves within it, inside the hull of those
     wolves and its closest wall points) ends like a captured one — rewards included — and an
     episode whose targets all ended, one of them cornered, ends as ``cornered``. A captured
     target leaves ``agents`` at once (with M > 1 the others play on). ``infos[agent]``, every
@@ -84,10 +84,11 @@ Arguments
     keys (``**{"world.wolves": 8}``) or ``world__wolves=8``, and ``max_cycles`` is PettingZoo's
     name for ``world.max_steps``; a keyword that names no params key is a TypeError, a bad value
     a ValueError naming the key. ``reset(seed=None, options=None)``;
-    ``options={"layout": LAYOUT}`` starts from an explicit state (API.md) with this env's agent
-    counts (a polygon with ``"moving": false`` still rotates in place, as SPEC §1.3's static
+    ``options={"layout": LAYOUT}`` starts from an explicit state (the layout format of docs/interface.md; example:
+    examples/layout.json) with this env's agent
+    counts (a polygon with ``"moving": false`` still rotates in place, as world-and-laws §1.3's static
     polygons do; it does not translate). ``env.unwrapped.world_state()`` and
-    ``env.unwrapped.expert_actions()`` as API.md.
+    ``env.unwrapped.expert_actions()`` (below).
 
 Rendering
     ``render_mode``: None, ``"rgb_array"`` (``render()`` returns the current frame, uint8
@@ -286,7 +287,7 @@ class WolfpackParallelEnv(ParallelEnv):
         return infos
 
     def world_state(self) -> dict[str, Any]:
-        """The world's state (API.md): ``wolves`` [N, 5] and ``targets`` [M, 5] (x, y, θ, v, ω),
+        """The world's state: ``wolves`` [N, 5] and ``targets`` [M, 5] (x, y, θ, v, ω),
         ``energy`` [N+M], ``interaction`` [(N+M), (N+M)] uint8, ``obstacles`` (list of dicts:
         kind, moving, center, radius, angle, vertices [k, 2] in world coordinates), ``step``,
         plus ``captured``, ``outcome``, ``seed``, ``episode``."""
@@ -322,19 +323,24 @@ class WolfpackParallelEnv(ParallelEnv):
 
 
 
-def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, **overrides: Any) -> WolfpackParallelEnv:
+def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, **overrides: Any) -> WolfpackParallelEnv:
     """A PettingZoo ``ParallelEnv`` of one world (see this module's docstring)."""
-    return WolfpackParallelEnv(params, learners=learners, render_mode=render_mode, **overrides)
+    return WolfpackParallelEnv(params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, **overrides)
 
 
 
-def env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, **overrides: Any):
+# ``wolfpack.parallel_env`` (this function) hides the module of the same name in the package:
+# give it the module's docstring, so that help(wolfpack.parallel_env) shows the specification.
+parallel_env.__doc__ = f"{parallel_env.__doc__}\n\n{__doc__}"
+
+
+def env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, **overrides: Any):
     """The same world as a PettingZoo ``AECEnv`` (agents act in turn; the world steps once all
     active agents have acted): PettingZoo's ``parallel_to_aec`` over :func:`parallel_env`, with
     the same arguments, spaces, ``state()`` and ``state_space``."""
     from pettingzoo.utils.conversions import parallel_to_aec
 
-    par = parallel_env(params, learners=learners, render_mode=render_mode, **overrides)
+    par = parallel_env(params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, **overrides)
     aec = parallel_to_aec(par)
     aec.state_space = par.state_space  # the converter forwards state() but not its space
     return aec

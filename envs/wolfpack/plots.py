@@ -131,7 +131,7 @@ def plot_curves(a: Mapping[str, np.ndarray], path: Path, label: str = "episode")
 def plot_interaction(a: Mapping[str, np.ndarray], path: Path, label: str = "episode") -> None:
     """``interaction.png``: the interaction graph over time as a heat map — one row per ordered
     pair (observer → observed) that is ever linked, one column per step, dark where the
-    observer sensed or used the observed agent that step (SPEC §1.4) — beside the number of
+    observer sensed or used the observed agent that step (world-and-laws §1.5) — beside the number of
     links per step."""
     inter = np.asarray(a["interaction"], dtype=np.uint8)  # [T, A, A]
     n, m = a["wolves"].shape[1], a["targets"].shape[1]

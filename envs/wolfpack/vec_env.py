@@ -9,6 +9,12 @@ wolves first, then targets) in the shared observation layout of :mod:`wolfpack.p
 sharing). Observations, actions and rewards are those of :mod:`wolfpack.parallel_env`.
 ``state()`` gives one global-state row per world (for centralised critics).
 
+Sizing PPO for a batch: SB3's ``n_steps`` counts vector steps, so one rollout is ``n_steps ×
+num_envs`` slots long — with SB3's default 2048 and 64 worlds × 5 wolves that is 655,360
+agent-steps before the first update. Choose ``n_steps`` so that ``n_steps × slots`` is a few
+thousand to a few tens of thousands (``n_steps=64`` for 320 slots: 20,480), and a
+``batch_size`` that divides it.
+
 SB3 semantics, exactly: ``step`` returns fresh arrays; a world that finishes is reset in the
 same step, its slots report ``done`` with ``infos[k]["terminal_observation"]`` (the last
 observation of the finished episode) and ``infos[k]["TimeLimit.truncated"]`` (True when the

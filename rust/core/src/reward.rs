@@ -45,7 +45,7 @@ impl RewardState {
         let r = &w.params.rewards;
         let n = w.n_wolves();
         let newly_captured = w.target_captured.iter().zip(&self.captured).filter(|(now, before)| **now && !**before).count();
-        let terminal = matches!(w.outcome, Outcome::Captured | Outcome::Collision);
+        let terminal = w.outcome.is_success() || w.outcome == Outcome::Collision;
         for i in 0..n {
             let phi = if terminal { 0.0 } else { potential(w, i) };
             if !wolves.is_empty() {
@@ -147,5 +147,25 @@ mod tests {
         // After the capture the target's reward is 0.
         s.step(&w, &mut rw, &mut rt);
         assert_eq!(rt[0], 0.0);
+    }
+
+    #[test]
+    fn a_cornered_ending_pays_like_a_capture() {
+        // capture.cornered: target 0.5 m from the top and right walls, two wolves at 0.51 m
+        // closing the hull with the wall points (the hand-built corner scene of world::step).
+        let mut p = Params::default();
+        p.policies.targets = crate::config::TargetPolicy::Still;
+        p.capture.cornered = true;
+        let wolves = vec![[9.0, 9.6, 0.0], [9.6, 9.0, 0.0], [-5.0, -5.0, 0.0], [-5.0, 5.0, 0.0], [5.0, -5.0, 0.0]];
+        let mut w = World::from_layout(Arc::new(p), 0, &Layout { wolves, targets: vec![[9.5, 9.5, 0.0]], obstacles: vec![] }).unwrap();
+        let mut s = RewardState::new(&w);
+        w.step_with(Some(&[Command::default(); 5]), None);
+        assert_eq!(w.outcome, Outcome::Cornered);
+        let (mut rw, mut rt) = ([0f32; 5], [0f32; 1]);
+        s.step(&w, &mut rw, &mut rt);
+        // Wolf 2: d = √(14.5² + 14.5²), Φ = −(d − 0.65) → 0 at the terminal state; +10 bonus.
+        let d = (2.0f64 * 14.5 * 14.5).sqrt();
+        assert!((rw[2] as f64 - (10.0 - 0.01 + (d - 0.65))).abs() < 1e-4, "{rw:?}");
+        assert_eq!(rt[0], -10.0);
     }
 }
