@@ -104,21 +104,22 @@ def plot(rows: list[dict], out: Path) -> None:
     fig.savefig(out / "capture_rates.png", dpi=120)
     plt.close(fig)
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for r, name in zip(rows, names):
+    from wolfpack.plots import line_styles
+
+    fig, ax = plt.subplots(figsize=(9, 4), layout="constrained")
+    for r, name, (colour, style) in zip(rows, names, line_styles(len(rows))):
         steps = np.sort(np.array(r["capture_steps"], dtype=float))
         if len(steps) == 0:
             continue
         # Empirical capture-time curve: fraction of all episodes captured by step t.
         frac = np.arange(1, len(steps) + 1) / r["episodes"]
-        ax.step(np.concatenate([[0], steps]), np.concatenate([[0], frac]) * 100, where="post", label=name.replace("\n", " "))
+        ax.step(np.concatenate([[0], steps]), np.concatenate([[0], frac]) * 100, where="post", color=colour, linestyle=style, label=name.replace("\n", " "))
     ax.set_xlabel("step")
     ax.set_ylabel("episodes captured by this step (%)")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7)
-    fig.tight_layout()
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # outside the data
     fig.savefig(out / "capture_times.png", dpi=120)
     plt.close(fig)
 

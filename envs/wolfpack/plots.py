@@ -16,12 +16,34 @@ import numpy as np
 from matplotlib.collections import PatchCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon, Rectangle
+from matplotlib.ticker import MaxNLocator
 
 OUTCOMES = ("captured", "cornered", "collision", "timeout")
 _OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
 _TARGET_COLOUR = "crimson"
 # Matplotlib's cycle without its red (C3), which is the target's colour.
 _WOLF_COLOURS = ("C0", "C1", "C2", "C4", "C5", "C6", "C7", "C8", "C9")
+_LINE_STYLES = ("-", "--", ":", "-.")
+
+
+def line_styles(k: int) -> list[tuple[str, str]]:
+    """``k`` distinct (colour, line style) pairs, for any ``k``: the 9 wolf colours with solid
+    lines first, then again dashed, dotted and dash-dotted (36 pairs); beyond that, ``k`` colours
+    sampled evenly from a perceptual colour map, each with a line style. No two lines of a plot
+    look alike, whatever the number of wolves or rows."""
+    if k <= len(_WOLF_COLOURS) * len(_LINE_STYLES):
+        return [(_WOLF_COLOURS[i % len(_WOLF_COLOURS)], _LINE_STYLES[i // len(_WOLF_COLOURS)]) for i in range(k)]
+    from matplotlib import colormaps
+    from matplotlib.colors import to_hex
+
+    cmap = colormaps["viridis"]
+    return [(to_hex(cmap(i / (k - 1))), _LINE_STYLES[i % len(_LINE_STYLES)]) for i in range(k)]
+
+
+def _legend_outside(ax, **kw) -> None:
+    """A legend to the right of the axes, never over the data."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=7, **kw)
 _DPI = 100
 
 
@@ -61,16 +83,16 @@ def plot_trajectory(a: Mapping[str, np.ndarray], path: Path, label: str = "episo
     """``trajectory.png``: arena border; obstacles at their initial pose (light) and final pose;
     each wolf's path (o = start, ▲ = end) and the targets' paths; a ring of radius
     ``capture_distance`` around each target's final position; title with outcome and steps."""
-    fig = Figure(figsize=(6.4, 6.4), dpi=_DPI)
+    fig = Figure(figsize=(7.6, 6.4), dpi=_DPI, layout="constrained")
     ax = fig.add_subplot()
     x0, y0, x1, y1 = a["border"]
     ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="black", linewidth=1.5))
     _obstacles(ax, a, 0, facecolor="0.85", edgecolor="0.7", linewidth=0.5, linestyle="--")
     _obstacles(ax, a, -1, facecolor="0.45", edgecolor="0.2", linewidth=0.8, alpha=0.8)
-    colours = [_WOLF_COLOURS[i % len(_WOLF_COLOURS)] for i in range(a["wolves"].shape[1])]
-    for i, colour in enumerate(colours):
+    styles = line_styles(a["wolves"].shape[1])
+    for i, (colour, style) in enumerate(styles):
         path_i = a["wolves"][:, i, :2]
-        ax.plot(path_i[:, 0], path_i[:, 1], color=colour, linewidth=1.0, label=f"wolf {i}")
+        ax.plot(path_i[:, 0], path_i[:, 1], color=colour, linestyle=style, linewidth=1.0, label=f"wolf {i}")
         ax.plot(*path_i[0], "o", color=colour, markersize=4)
         ax.plot(*path_i[-1], "^", color=colour, markersize=6)
     for j in range(a["targets"].shape[1]):
@@ -86,7 +108,7 @@ def plot_trajectory(a: Mapping[str, np.ndarray], path: Path, label: str = "episo
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(_title(a, label), fontsize=10)
-    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    _legend_outside(ax)
     fig.savefig(path)
 
 
@@ -103,27 +125,27 @@ def plot_curves(a: Mapping[str, np.ndarray], path: Path, label: str = "episode")
     n, m = a["wolves"].shape[1], a["targets"].shape[1]
     time = np.arange(a["wolves"].shape[0]) * float(a["ts"])
     names = [f"wolf {i}" for i in range(n)] + [f"target {j}" if m > 1 else "target" for j in range(m)]
-    colours = [_WOLF_COLOURS[i % len(_WOLF_COLOURS)] for i in range(n)] + [_TARGET_COLOUR] * m
+    styles = line_styles(n) + [(_TARGET_COLOUR, _LINE_STYLES[j % len(_LINE_STYLES)]) for j in range(m)]
     speeds = np.concatenate([a["wolves"][:, :, 3], a["targets"][:, :, 3]], axis=1)
 
     turns = np.concatenate([a["wolves"][:, :, 4], a["targets"][:, :, 4]], axis=1)
 
     fig = Figure(figsize=(7.0, 10.0), dpi=_DPI, layout="constrained")
     ax_v, ax_w, ax_d, ax_e = fig.subplots(4, 1, sharex=True)
-    for k, (name, colour) in enumerate(zip(names, colours)):
-        ax_v.plot(time, speeds[:, k], color=colour, linewidth=0.8, label=name)
-        ax_w.plot(time, turns[:, k], color=colour, linewidth=0.6)
-        ax_e.plot(time, a["energy"][:, k], color=colour, linewidth=0.8)
+    for k, (name, (colour, style)) in enumerate(zip(names, styles)):
+        ax_v.plot(time, speeds[:, k], color=colour, linestyle=style, linewidth=0.8, label=name)
+        ax_w.plot(time, turns[:, k], color=colour, linestyle=style, linewidth=0.6)
+        ax_e.plot(time, a["energy"][:, k], color=colour, linestyle=style, linewidth=0.8)
     ax_w.set_ylabel("turn rate ω (rad/s)")
     for i, d in enumerate(wolf_target_distance(a).T):
-        ax_d.plot(time, d, color=colours[i], linewidth=0.8)
+        ax_d.plot(time, d, color=styles[i][0], linestyle=styles[i][1], linewidth=0.8)
     ax_d.axhline(float(a["capture_distance"]), color="black", linestyle="--", linewidth=0.8, label="capture distance")
     ax_v.set_ylabel("speed v (m/s)")
     ax_d.set_ylabel("wolf–target distance (m)")
     ax_e.set_ylabel("energy Σ ½mv² (J)")
     ax_e.set_xlabel("time (s)")
-    ax_v.legend(loc="upper right", fontsize=7, ncol=3)
-    ax_d.legend(loc="upper right", fontsize=7)
+    _legend_outside(ax_v)
+    _legend_outside(ax_d)
     ax_v.set_title(_title(a, label), fontsize=10)
     fig.savefig(path)
 
@@ -143,12 +165,17 @@ def plot_interaction(a: Mapping[str, np.ndarray], path: Path, label: str = "epis
         image = np.array([inter[:, i, j] for i, j in pairs])
         ax_map.imshow(image, aspect="auto", interpolation="nearest", cmap="Greys", vmin=0, vmax=1, extent=(0.5, inter.shape[0] + 0.5, len(pairs) - 0.5, -0.5))
         ax_map.set_yticks(range(len(pairs)), [f"{names[i]}→{names[j]}" for i, j in pairs], fontsize=6)
+        # The key: what a dark cell means, and how the rows are named.
+        ax_map.legend(handles=[Rectangle((0, 0), 1, 1, facecolor="black"), Rectangle((0, 0), 1, 1, facecolor="white", edgecolor="0.6")],
+                      labels=["linked this step", "not linked"], title="wN = wolf N, t = target;\nrow a→b: a sensed or used b",
+                      loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=7, title_fontsize=7)
     else:
         ax_map.text(0.5, 0.5, "no interactions", ha="center", va="center", transform=ax_map.transAxes)
-    ax_map.set_title(_title(a, label) + ": interaction graph (observer → observed)", fontsize=10)
+    ax_map.set_title(_title(a, label) + "\ninteraction graph (observer → observed)", fontsize=10)
     steps = np.arange(1, inter.shape[0] + 1)
     ax_count.plot(steps, inter.reshape(inter.shape[0], -1).sum(axis=1) if inter.shape[0] else [], color="black", linewidth=0.8)
     ax_count.set_ylabel("links")
+    ax_count.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_count.set_xlabel("step")
     fig.savefig(path)
 
@@ -167,14 +194,16 @@ def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
     ax_bar.bar_label(bars)
     ax_bar.margins(y=0.12)  # room for the labels above the bars
     ax_bar.set_ylabel("episodes")
+    ax_bar.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_bar.set_title(f"outcomes of {len(details)} episodes", fontsize=10)
     if capture_steps:
         ax_hist.hist(capture_steps, bins="auto", color=_OUTCOME_COLOURS["captured"])
         ax_hist.axvline(float(np.median(capture_steps)), color="black", linestyle="--", label="median")
-        ax_hist.legend(fontsize=8)
+        _legend_outside(ax_hist)
     else:
         ax_hist.text(0.5, 0.5, "no captures", ha="center", va="center", transform=ax_hist.transAxes)
     ax_hist.set_xlabel("capture step")
     ax_hist.set_ylabel("episodes")
+    ax_hist.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_hist.set_title("steps to capture", fontsize=10)
     fig.savefig(path)

@@ -1,0 +1,80 @@
+"""Pictures a person can read: no two lines of a plot look alike, whatever the number of wolves
+or evaluation rows; legends sit outside the data; count axes have integer ticks."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+import wolfpack  # noqa: E402
+from wolfpack import logs, plots  # noqa: E402
+
+
+@pytest.mark.parametrize("k", [1, 5, 9, 10, 12, 36, 37, 100, 400])
+def test_line_styles_are_distinct_for_any_count(k):
+    styles = plots.line_styles(k)
+    assert len(styles) == k and len(set(styles)) == k
+
+
+@pytest.fixture
+def saved(monkeypatch):
+    """The figures the plot functions save, kept for inspection."""
+    figures = []
+    original = Figure.savefig
+
+    def keep(self, *args, **kwargs):
+        figures.append(self)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    return figures
+
+
+def _lines(ax):
+    return [(line.get_color(), line.get_linestyle()) for line in ax.get_lines() if line.get_label() and not line.get_label().startswith("_")]
+
+
+def test_twelve_wolves_get_twelve_distinct_lines_and_outside_legends(saved, tmp_path):
+    params = wolfpack.load_params(overrides={"world.wolves": 12, "world.max_steps": 60})
+    result = wolfpack.run_episodes(params, episodes=1, seed=0, record=True)[0]
+    arrays = logs.trajectory_arrays(result, wolfpack.BatchEnv(params).params)
+    plots.plot_trajectory(arrays, tmp_path / "t.png")
+    plots.plot_curves(arrays, tmp_path / "c.png")
+    plots.plot_interaction(arrays, tmp_path / "i.png")
+    traj, curves, inter = saved
+    wolf_lines = [(line.get_color(), line.get_linestyle()) for line in traj.axes[0].get_lines() if line.get_label().startswith("wolf")]
+    assert len(wolf_lines) == 12 and len(set(wolf_lines)) == 12
+    speed_lines = _lines(curves.axes[0])
+    assert len(speed_lines) == 13 and len(set(speed_lines)) == 13  # 12 wolves and the target
+    for fig in (traj, curves):
+        legend = fig.axes[0].get_legend()
+        assert legend is not None and legend.get_bbox_to_anchor().x0 >= fig.axes[0].get_window_extent().x1 - 1  # right of the axes
+    assert inter.axes[0].get_legend() is not None  # the heat map's key
+
+
+def test_evaluation_capture_times_distinguish_twelve_rows(saved, tmp_path):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "training"))
+    import evaluate
+
+    rows = [{"wolves": f"w{k}", "targets": "escape", "episodes": 10, "first_seed": 0, "capture_rate": 0.5, "capture_rate_ci95": [0.2, 0.8],
+             "capture_steps": list(range(10 + k, 15 + k))} for k in range(12)]
+    evaluate.plot(rows, tmp_path)
+    times = saved[-1]
+    styles = [(line.get_color(), line.get_linestyle()) for line in times.axes[0].get_lines()]
+    assert len(styles) == 12 and len(set(styles)) == 12
+
+
+def test_summary_counts_have_integer_ticks(saved, tmp_path):
+    details = [{"outcome": "captured", "capture_step": 100 + k} for k in range(3)] + [{"outcome": "timeout", "capture_step": None}]
+    plots.plot_summary(details, tmp_path / "s.png")
+    fig = saved[-1]
+    for ax in fig.axes:
+        ticks = ax.get_yticks()
+        assert np.allclose(ticks, np.round(ticks)), ticks
