@@ -22,13 +22,14 @@ from wolfpack.cli import main as cli_main
 
 
 def pixel_of(frame: np.ndarray, border, x: float, y: float) -> tuple[int, int, int]:
-    """The pixel showing world point (x, y): the same mapping as render.rs's View (the arena
-    fills 94 % of the frame, centred, y up)."""
+    """The pixel showing world point (x, y): the same mapping as render.rs's View (a status band
+    of 5 % of the height, 8–40 px, on top; the arena fills 94 % of the rest, centred, y up)."""
     h, w = frame.shape[:2]
     x0, y0, x1, y1 = border
-    scale = 0.94 * min(w / (x1 - x0), h / (y1 - y0))
+    below = h - min(max(round(h * 0.05), 8), 40)
+    scale = 0.94 * min(w / (x1 - x0), below / (y1 - y0))
     ox = (w - scale * (x1 - x0)) / 2 - scale * x0
-    oy = (h - scale * (y1 - y0)) / 2 - scale * y0
+    oy = (below - scale * (y1 - y0)) / 2 - scale * y0
     px, py = ox + scale * x, h - (oy + scale * y)
     return tuple(int(v) for v in frame[int(np.floor(py)), int(np.floor(px))])
 
@@ -58,7 +59,7 @@ def test_rgb_array_frames_agree_with_the_world_state():
     assert all((a != b).any() for a, b in zip(frames, frames[1:])), "every step changes the frame (the clock at least)"
     state = env.unwrapped.world_state()
     border = env.unwrapped.params["world"]["border"]
-    scale = 0.94 * 512 / (border[2] - border[0])
+    scale = 0.94 * (512 - 26) / (border[3] - border[1])  # 26 px status band (5 % of 512)
     height = env.unwrapped.params["agents"]["body"]["height"]
     poses = list(state["wolves"]) + list(state["targets"])
     colours = [render.wolf_colour(i) for i in range(len(state["wolves"]))] + [render.TARGET_COLOUR] * len(state["targets"])

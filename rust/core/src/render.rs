@@ -176,7 +176,12 @@ fn draw(scene: &Scene, pixmap: &mut Pixmap) {
         canvas.triangle(*p, h, agent_colour(scene, k), hollow);
     }
     if let Some(step) = scene.step {
-        canvas.number(step, 4.0, 4.0, (height as f32 / 100.0).clamp(1.0, 4.0));
+        // In the band above the arena, so that it never covers the border or an agent: digits
+        // as tall as that band allows (5 cells plus a cell of backdrop above and below), 1–4 px
+        // per cell.
+        let top = canvas.view.px([scene.border[0], scene.border[3]]).1;
+        let size = ((top - 2.0) / 7.0).floor().clamp(1.0, 4.0);
+        canvas.number(step, 4.0 + size, ((top - 5.0 * size) / 2.0).max(size), size);
     }
 }
 
@@ -227,7 +232,13 @@ fn paint(c: Rgb, alpha: u8) -> Paint<'static> {
     p
 }
 
-/// World → pixel mapping: the arena fills the frame with a 3 % margin, aspect kept, y up.
+/// Height (px) of the status band above the arena: 5 % of the frame, 8–40 px.
+pub fn status_band(height: u32) -> f64 {
+    (height as f64 * 0.05).round().clamp(8.0, 40.0)
+}
+
+/// World → pixel mapping: below the status band, the arena fills 94 % of the rest, centred,
+/// aspect kept, y up.
 #[derive(Debug, Clone, Copy)]
 pub struct View {
     pub scale: f64,
@@ -239,9 +250,12 @@ pub struct View {
 impl View {
     pub fn new([x0, y0, x1, y1]: [f64; 4], width: u32, height: u32) -> Self {
         let (w, h) = (width as f64, height as f64);
-        let scale = 0.94 * (w / (x1 - x0)).min(h / (y1 - y0));
+        // A status band on top (the step counter) that the arena never reaches; the arena
+        // fills 94 % of the rest, centred.
+        let below = h - status_band(height);
+        let scale = 0.94 * (w / (x1 - x0)).min(below / (y1 - y0));
         let ox = (w - scale * (x1 - x0)) / 2.0 - scale * x0;
-        let oy = (h - scale * (y1 - y0)) / 2.0 - scale * y0;
+        let oy = (below - scale * (y1 - y0)) / 2.0 - scale * y0;
         View { scale, ox, oy, height: h }
     }
 
@@ -477,6 +491,23 @@ mod tests {
         let mut c = s.clone();
         c.target_captured = vec![true];
         assert_ne!(a, render(&c, 120, 120).unwrap());
+    }
+
+    #[test]
+    fn the_step_counter_sits_above_the_arena() {
+        // The counter's ink and backdrop stay in the band above the arena: the arena's pixels
+        // are the same with or without it, at any frame size.
+        for (w, h) in [(512, 512), (700, 700), (800, 400), (1024, 600), (120, 120), (16, 16)] {
+            let mut s = scene();
+            s.step = None;
+            let plain = render(&s, w, h).unwrap();
+            s.step = Some(288);
+            let counted = render(&s, w, h).unwrap();
+            let top = View::new(s.border, w, h).px([s.border[0], s.border[3]]).1.floor() as usize;
+            let row = 3 * w as usize;
+            assert!(plain[..top * row] != counted[..top * row], "{w}x{h}: no counter drawn in the band");
+            assert!(plain[top * row..] == counted[top * row..], "{w}x{h}: the counter reaches into the arena");
+        }
     }
 
     #[test]
