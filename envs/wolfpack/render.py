@@ -11,7 +11,7 @@ moving brown), each agent's trail over the last ``trail`` steps, the
 capture ring (radius ``capture.distance``) around every uncaptured target, optionally each
 agent's sensing circle and the interaction links of the step (observer → observed, from the
 interaction matrix), wolves as oriented triangles in their own colours (``wolf_colour(i)``),
-targets in red (hollow once captured), and the step count in a band above the arena. Bodies are
+targets in red (hollow once captured), and, in a band above the arena, the step count and a legend strip. Bodies are
 drawn at true size but at least 9 px long.
 """
 

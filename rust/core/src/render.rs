@@ -175,15 +175,34 @@ fn draw(scene: &Scene, pixmap: &mut Pixmap) {
         let hollow = k >= scene.wolves.len() && scene.target_captured.get(k - scene.wolves.len()).copied().unwrap_or(false);
         canvas.triangle(*p, h, agent_colour(scene, k), hollow);
     }
+    // The band above the arena: the step counter on the left, the legend on the right, so that
+    // neither ever covers the border or an agent.
+    let top = canvas.view.px([scene.border[0], scene.border[3]]).1;
+    let mut used = 0.0;
     if let Some(step) = scene.step {
-        // In the band above the arena, so that it never covers the border or an agent: digits
-        // as tall as that band allows (5 cells plus a cell of backdrop above and below), 1–4 px
-        // per cell.
-        let top = canvas.view.px([scene.border[0], scene.border[3]]).1;
+        // Digits as tall as the band allows (5 cells plus a cell of backdrop above and below),
+        // 1–4 px per cell.
         let size = ((top - 2.0) / 7.0).floor().clamp(1.0, 4.0);
         canvas.number(step, 4.0 + size, ((top - 5.0 * size) / 2.0).max(size), size);
+        used = 4.0 + size + 4.0 * size * step.to_string().len() as f32;
     }
+    canvas.legend(top, used, width as f32);
 }
+
+/// What the legend names, in order: a swatch kind, its colour, its label.
+enum Swatch {
+    Triangle,
+    Ring,
+    Square,
+}
+
+const LEGEND: [(Swatch, Rgb, &str); 5] = [
+    (Swatch::Triangle, WOLF_COLOURS[0], "WOLF"),
+    (Swatch::Triangle, TARGET_COLOUR, "TARGET"),
+    (Swatch::Ring, TARGET_COLOUR, "CAPTURE"),
+    (Swatch::Square, MOVING_OBSTACLE, "MOVING"),
+    (Swatch::Square, STATIC_OBSTACLE, "STATIC"),
+];
 
 /// Drops every fourth byte (the background is opaque, so premultiplied RGBA = straight RGBA).
 /// Four pixels at a time as 32-bit words: 16 bytes in, 12 out (2.5× faster than per pixel).
@@ -377,6 +396,67 @@ impl Canvas<'_> {
         self.stroke(outline, if hollow { c } else { [0, 0, 0] }, 255, 1.0);
     }
 
+    /// The legend, right-aligned in the band above the arena (`top` px tall) after `used` px of
+    /// it: a swatch and a label per entry of [`LEGEND`], in 3 × 5 letters of 1–2 px cells. Left
+    /// out when the band is too narrow or too low for it.
+    fn legend(&mut self, top: f32, used: f32, width: f32) {
+        let size = ((top - 2.0) / 7.0).floor().min(2.0);
+        if size < 1.0 {
+            return;
+        }
+        let (cell, swatch, gap) = (4.0 * size, 5.0 * size, 3.0 * size);
+        let total: f32 = LEGEND.iter().map(|(_, _, label)| swatch + size + cell * label.len() as f32 + gap).sum::<f32>() - gap;
+        let x0 = width - 4.0 - total;
+        if x0 < used + 8.0 {
+            return;
+        }
+        let y = ((top - 5.0 * size) / 2.0).max(size);
+        if let Some(r) = Rect::from_xywh(x0 - size, y - size, total + 2.0 * size, 7.0 * size) {
+            self.pixmap.fill_rect(r, &paint(BACKGROUND, 200), Transform::identity(), None);
+        }
+        let mut x = x0;
+        for (kind, c, label) in LEGEND {
+            let mut pb = PathBuilder::new();
+            match kind {
+                Swatch::Triangle => {
+                    pb.move_to(x, y + swatch);
+                    pb.line_to(x + swatch / 2.0, y);
+                    pb.line_to(x + swatch, y + swatch);
+                    pb.close();
+                    self.fill(pb, c, 255);
+                }
+                Swatch::Square => {
+                    pb.push_rect(Rect::from_xywh(x, y, swatch, swatch).expect("positive size"));
+                    self.fill(pb, c, 255);
+                }
+                Swatch::Ring => {
+                    pb.push_circle(x + swatch / 2.0, y + swatch / 2.0, swatch / 2.0 - 0.5);
+                    self.stroke(pb, c, 220, 1.0);
+                }
+            }
+            x += swatch + size;
+            self.text(label, x, y, size);
+            x += cell * label.len() as f32 + gap;
+        }
+    }
+
+    /// Upper-case `text` (the letters of [`LEGEND`]) in the 3 × 5 pixel font, cells of `size` px.
+    fn text(&mut self, text: &str, x: f32, y: f32, size: f32) {
+        let ink = paint([0, 0, 0], 255);
+        for (k, ch) in text.chars().enumerate() {
+            let Some(glyph) = letter(ch) else { continue };
+            for (row, bits) in glyph.iter().enumerate() {
+                for col in 0..3 {
+                    if bits & (0b100 >> col) != 0 {
+                        if let Some(r) = Rect::from_xywh(x + k as f32 * 4.0 * size + col as f32 * size, y + row as f32 * size, size, size) {
+                            self.pixmap.fill_rect(r, &ink, Transform::identity(), None);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// `n` in a 3 × 5 pixel font scaled by `size`, top-left corner at (x, y).
     fn number(&mut self, n: u64, x: f32, y: f32, size: f32) {
         let digits = n.to_string();
@@ -400,6 +480,30 @@ impl Canvas<'_> {
             }
         }
     }
+}
+
+/// 3 × 5 glyphs of the legend's letters, as [`DIGITS`].
+fn letter(ch: char) -> Option<[u8; 5]> {
+    Some(match ch {
+        'A' => [0b010, 0b101, 0b111, 0b101, 0b101],
+        'C' => [0b011, 0b100, 0b100, 0b100, 0b011],
+        'E' => [0b111, 0b100, 0b110, 0b100, 0b111],
+        'F' => [0b111, 0b100, 0b110, 0b100, 0b100],
+        'G' => [0b011, 0b100, 0b101, 0b101, 0b011],
+        'I' => [0b111, 0b010, 0b010, 0b010, 0b111],
+        'L' => [0b100, 0b100, 0b100, 0b100, 0b111],
+        'M' => [0b101, 0b111, 0b111, 0b101, 0b101],
+        'N' => [0b101, 0b111, 0b111, 0b111, 0b101],
+        'O' => [0b010, 0b101, 0b101, 0b101, 0b010],
+        'P' => [0b110, 0b101, 0b110, 0b100, 0b100],
+        'R' => [0b110, 0b101, 0b110, 0b101, 0b101],
+        'S' => [0b011, 0b100, 0b010, 0b001, 0b110],
+        'T' => [0b111, 0b010, 0b010, 0b010, 0b010],
+        'U' => [0b101, 0b101, 0b101, 0b101, 0b111],
+        'V' => [0b101, 0b101, 0b101, 0b101, 0b010],
+        'W' => [0b101, 0b101, 0b111, 0b111, 0b101],
+        _ => return None,
+    })
 }
 
 /// 3 × 5 digit glyphs, one row per entry, bit 2 = left column. (No font library for ten
@@ -508,6 +612,21 @@ mod tests {
             assert!(plain[..top * row] != counted[..top * row], "{w}x{h}: no counter drawn in the band");
             assert!(plain[top * row..] == counted[top * row..], "{w}x{h}: the counter reaches into the arena");
         }
+    }
+
+    #[test]
+    fn the_legend_has_a_glyph_for_every_letter_and_fits_the_band() {
+        for (_, _, label) in LEGEND {
+            assert!(label.chars().all(|c| letter(c).is_some()), "{label}");
+        }
+        // 512 px: drawn, in the band (the arena untouched, as for the counter), left of the
+        // right edge; the band has legend ink (black) near its right end.
+        let s = scene();
+        let (w, h) = (512u32, 512u32);
+        let frame = render(&s, w, h).unwrap();
+        let top = View::new(s.border, w, h).px([s.border[0], s.border[3]]).1.floor() as usize;
+        let inked = (0..top).any(|y| (w as usize / 2..w as usize - 2).any(|x| pixel(&frame, w, (x as f32, y as f32)) == [0, 0, 0]));
+        assert!(inked, "no legend text in the band's right half");
     }
 
     #[test]
