@@ -81,20 +81,39 @@ def measure(name: str, run: Callable[[float], int], seconds: float, in_process: 
     return row
 
 
-def run_vec_env(num_envs: int) -> Callable[[float], int]:
-    venv = wolfpack.make_vec_env(num_envs=num_envs, learners="wolves", seed=0, threads=1)
-    venv.reset()
-    plan = np.random.default_rng(0).uniform(-1, 1, (64, venv.num_envs, 2)).astype(np.float32)
+def vector_runner(step: Callable[[np.ndarray], object], slots: int, worlds: int) -> Callable[[float], int]:
+    """``run(seconds)`` for a vector env: ``step`` with 64 pre-drawn random action batches of
+    ``slots`` × 2, in turn; each call advances ``worlds`` worlds one step."""
+    plan = np.random.default_rng(0).uniform(-1, 1, (64, slots, 2)).astype(np.float32)
 
     def run(seconds: float) -> int:
-        steps, t_end, k = 0, time.perf_counter() + seconds, 0
+        calls, t_end = 0, time.perf_counter() + seconds
         while time.perf_counter() < t_end:
-            venv.step(plan[k % 64])
-            k += 1
-            steps += num_envs
+            step(plan[calls % 64])
+            calls += 1
+        return calls * worlds
+
+    return run
+
+
+def rollout_runner(env, length: int = 100) -> Callable[[float], int]:
+    """``run(seconds)`` for a TorchRL env: random-policy rollouts of ``length`` steps that reset
+    finished episodes and go on."""
+
+    def run(seconds: float) -> int:
+        steps, t_end = 0, time.perf_counter() + seconds
+        while time.perf_counter() < t_end:
+            env.rollout(length, break_when_any_done=False)
+            steps += length
         return steps
 
     return run
+
+
+def run_vec_env(num_envs: int) -> Callable[[float], int]:
+    venv = wolfpack.make_vec_env(num_envs=num_envs, learners="wolves", seed=0, threads=1)
+    venv.reset()
+    return vector_runner(venv.step, venv.num_envs, num_envs)
 
 
 def run_parallel_env() -> Callable[[float], int]:
@@ -120,47 +139,19 @@ def run_gymnasium(mode: str, num_envs: int):
 
     envs = gymnasium.make_vec("wolfpack/Escape-v0", num_envs=num_envs, vectorization_mode=mode)
     envs.reset(seed=0)
-    plan = np.random.default_rng(0).uniform(-1, 1, (64, num_envs, 2)).astype(np.float32)
-
-    def run(seconds: float) -> int:
-        steps, t_end, k = 0, time.perf_counter() + seconds, 0
-        while time.perf_counter() < t_end:
-            envs.step(plan[k % 64])
-            k += 1
-            steps += num_envs
-        return steps
-
-    return run, envs
+    return vector_runner(envs.step, num_envs, num_envs), envs
 
 
 def run_torchrl_pettingzoo():
     from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
-    env = PettingZooWrapper(wolfpack.parallel_env(learners="all"), use_mask=True)
-
-    def run(seconds: float) -> int:
-        steps, t_end = 0, time.perf_counter() + seconds
-        while time.perf_counter() < t_end:
-            env.rollout(100, break_when_any_done=False)
-            steps += 100
-        return steps
-
-    return run
+    return rollout_runner(PettingZooWrapper(wolfpack.parallel_env(learners="all"), use_mask=True))
 
 
 def run_torchrl_gym():
     from torchrl.envs.libs.gym import GymEnv
 
-    env = GymEnv("wolfpack/Escape-v0")
-
-    def run(seconds: float) -> int:
-        steps, t_end = 0, time.perf_counter() + seconds
-        while time.perf_counter() < t_end:
-            env.rollout(100, break_when_any_done=False)
-            steps += 100
-        return steps
-
-    return run
+    return rollout_runner(GymEnv("wolfpack/Escape-v0"))
 
 
 def run_supersuit(copies: int):
@@ -169,17 +160,7 @@ def run_supersuit(copies: int):
     venv = ss.pettingzoo_env_to_vec_env_v1(wolfpack.parallel_env(learners="all", shared_space=True))
     venv = ss.concat_vec_envs_v1(venv, copies, num_cpus=0, base_class="stable_baselines3")
     venv.reset()
-    plan = np.random.default_rng(0).uniform(-1, 1, (64, venv.num_envs, 2)).astype(np.float32)
-
-    def run(seconds: float) -> int:
-        steps, t_end, k = 0, time.perf_counter() + seconds, 0
-        while time.perf_counter() < t_end:
-            venv.step(plan[k % 64])
-            k += 1
-            steps += copies
-        return steps
-
-    return run
+    return vector_runner(venv.step, venv.num_envs, copies)
 
 
 def main(argv: list[str] | None = None) -> int:

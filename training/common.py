@@ -32,7 +32,7 @@ import yaml
 
 import wolfpack
 from wolfpack import _core
-from wolfpack.batch import OUTCOMES, BatchEnv, resolve_params
+from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
 from wolfpack.episodes import summarize
 
@@ -77,6 +77,17 @@ def positive_int(text: str) -> int:
         value = 0
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return value
 
 
@@ -289,13 +300,14 @@ def rollout(
             wall = np.minimum.reduce([final[:, 0] - x0, x1 - final[:, 0], final[:, 1] - y0, y1 - final[:, 1]])
             outcome = OUTCOMES[int(out["outcome"][e])]
             caps = out["capture_step"][e]
+            cornered = first_cornered_step(out["cornered_step"][e])
             results.append(
                 {
                     "seed": seed + first + e,
                     "outcome": outcome,
                     "steps": int(out["steps"][e]),
                     "capture_step": int(caps.max()) if outcome == "captured" else None,
-                    "cornered_step": first_cornered(out["cornered_step"][e]),
+                    "cornered_step": cornered if cornered >= 0 else None,
                     "energy": out["energy"][e].copy(),
                     "collisions": out["collisions"][e].copy(),
                     "n_wolves": batch.n_wolves,
@@ -308,12 +320,6 @@ def rollout(
             progress(count)
     return results
 
-
-def first_cornered(steps: np.ndarray) -> int | None:
-    """The first step at which any target of a world was cornered (its ``cornered_step`` row of
-    a :meth:`BatchEnv.step` output, −1 = never), or None."""
-    seen = [int(c) for c in np.asarray(steps).reshape(-1) if c >= 0]
-    return min(seen) if seen else None
 
 
 def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, targets: Policy | None = None) -> dict:
@@ -352,7 +358,7 @@ def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, tar
         "outcome": outcome,
         "capture_step": int(caps.max()) if outcome == "captured" else -1,
         "target_capture_step": np.asarray(caps, dtype=np.int64),
-        "cornered_step": np.int64(-1 if first_cornered(out["cornered_step"][0]) is None else first_cornered(out["cornered_step"][0])),
+        "cornered_step": np.int64(first_cornered_step(out["cornered_step"][0])),
         "seed": seed,
         "ts": params["world"]["ts"],
         "capture_distance": params["capture"]["distance"],

@@ -37,7 +37,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import signal
 import sys
 import time
@@ -45,23 +44,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import UsageError, env_params, positive_int, seed_int  # noqa: E402
+from common import UsageError, env_params, positive_float, positive_int, seed_int  # noqa: E402
 
 import wolfpack  # noqa: E402
 from wolfpack.rllib import env_creator, shared_mapping, side_mapping  # noqa: E402
 
 ENV_NAME = "wolfpack_parallel"
 LEARNERS = ("all", "wolves", "targets")
-
-
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -145,6 +145,13 @@ def check_action(x: Any, who: str) -> np.ndarray:
 _SUCCESS_CODES = (OUTCOMES.index("captured"), OUTCOMES.index("cornered"))
 
 
+def first_cornered_step(steps) -> int:
+    """The first step at which any target of a world was cornered, from its ``cornered_step``
+    row of a :meth:`BatchEnv.step` output (−1 per target that never was); −1 if none was."""
+    seen = [int(c) for c in steps if c >= 0]
+    return min(seen) if seen else -1
+
+
 def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) -> list[dict]:
     """The info dicts of agents ``lo .. hi`` (wolves 0..N-1, then targets) of every world of a
     :meth:`BatchEnv.step` output, world-major. Every value is a number of one type for the
@@ -168,8 +175,7 @@ def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) 
     for e, code in enumerate(codes):
         world_cap = max(caps[e]) if code in _SUCCESS_CODES else -1
         cap = [world_cap] * wolves_in_range + caps[e][targets_in_range]
-        seen = [c for c in corners[e] if c >= 0]
-        cornered = min(seen) if seen else -1
+        cornered = first_cornered_step(corners[e])
         infos.extend(
             {"outcome": code, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
             for c, en, co, d in zip(cap, energy[e], collisions[e], distance[e])

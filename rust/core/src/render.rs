@@ -180,13 +180,18 @@ fn draw(scene: &Scene, pixmap: &mut Pixmap) {
     let top = canvas.view.px([scene.border[0], scene.border[3]]).1;
     let mut used = 0.0;
     if let Some(step) = scene.step {
-        // Digits as tall as the band allows (5 cells plus a cell of backdrop above and below),
-        // 1–4 px per cell.
-        let size = ((top - 2.0) / 7.0).floor().clamp(1.0, 4.0);
+        // Digits as tall as the band allows, 1–4 px per cell.
+        let size = band_cell(top).clamp(1.0, 4.0);
         canvas.number(step, 4.0 + size, ((top - 5.0 * size) / 2.0).max(size), size);
         used = 4.0 + size + 4.0 * size * step.to_string().len() as f32;
     }
     canvas.legend(top, used, width as f32);
+}
+
+/// The largest glyph cell (px) that fits a band `top` px tall: 5 cells of glyph plus a cell of
+/// backdrop above and below, and 2 px for the arena's border line.
+fn band_cell(top: f32) -> f32 {
+    ((top - 2.0) / 7.0).floor()
 }
 
 /// What the legend names, in order: a swatch kind, its colour, its label.
@@ -400,7 +405,7 @@ impl Canvas<'_> {
     /// it: a swatch and a label per entry of [`LEGEND`], in 3 × 5 letters of 1–2 px cells. Left
     /// out when the band is too narrow or too low for it.
     fn legend(&mut self, top: f32, used: f32, width: f32) {
-        let size = ((top - 2.0) / 7.0).floor().min(2.0);
+        let size = band_cell(top).min(2.0);
         if size < 1.0 {
             return;
         }
@@ -440,11 +445,12 @@ impl Canvas<'_> {
         }
     }
 
-    /// Upper-case `text` (the letters of [`LEGEND`]) in the 3 × 5 pixel font, cells of `size` px.
+    /// `text` (digits and the upper-case letters of [`LEGEND`]) in the 3 × 5 pixel font, cells of
+    /// `size` px, top-left corner at (x, y).
     fn text(&mut self, text: &str, x: f32, y: f32, size: f32) {
         let ink = paint([0, 0, 0], 255);
         for (k, ch) in text.chars().enumerate() {
-            let Some(glyph) = letter(ch) else { continue };
+            let Some(glyph) = glyph(ch) else { continue };
             for (row, bits) in glyph.iter().enumerate() {
                 for col in 0..3 {
                     if bits & (0b100 >> col) != 0 {
@@ -460,31 +466,18 @@ impl Canvas<'_> {
     /// `n` in a 3 × 5 pixel font scaled by `size`, top-left corner at (x, y).
     fn number(&mut self, n: u64, x: f32, y: f32, size: f32) {
         let digits = n.to_string();
-        let cell = 4.0 * size;
-        let backdrop = Rect::from_xywh(x - size, y - size, cell * digits.len() as f32 + size, 7.0 * size);
+        let backdrop = Rect::from_xywh(x - size, y - size, 4.0 * size * digits.len() as f32 + size, 7.0 * size);
         if let Some(r) = backdrop {
             self.pixmap.fill_rect(r, &paint(BACKGROUND, 200), Transform::identity(), None);
         }
-        let ink = paint([0, 0, 0], 255);
-        for (k, ch) in digits.bytes().enumerate() {
-            let glyph = DIGITS[(ch - b'0') as usize];
-            for (row, bits) in glyph.iter().enumerate() {
-                for col in 0..3 {
-                    if bits & (0b100 >> col) != 0 {
-                        let r = Rect::from_xywh(x + k as f32 * cell + col as f32 * size, y + row as f32 * size, size, size);
-                        if let Some(r) = r {
-                            self.pixmap.fill_rect(r, &ink, Transform::identity(), None);
-                        }
-                    }
-                }
-            }
-        }
+        self.text(&digits, x, y, size);
     }
 }
 
-/// 3 × 5 glyphs of the legend's letters, as [`DIGITS`].
-fn letter(ch: char) -> Option<[u8; 5]> {
+/// The 3 × 5 glyph of a digit or of a letter of the legend, as [`DIGITS`].
+fn glyph(ch: char) -> Option<[u8; 5]> {
     Some(match ch {
+        '0'..='9' => DIGITS[ch as usize - '0' as usize],
         'A' => [0b010, 0b101, 0b111, 0b101, 0b101],
         'C' => [0b011, 0b100, 0b100, 0b100, 0b011],
         'E' => [0b111, 0b100, 0b110, 0b100, 0b111],
@@ -617,7 +610,7 @@ mod tests {
     #[test]
     fn the_legend_has_a_glyph_for_every_letter_and_fits_the_band() {
         for (_, _, label) in LEGEND {
-            assert!(label.chars().all(|c| letter(c).is_some()), "{label}");
+            assert!(label.chars().all(|c| glyph(c).is_some()), "{label}");
         }
         // 512 px: drawn, in the band (the arena untouched, as for the counter), left of the
         // right edge; the band has legend ink (black) near its right end.

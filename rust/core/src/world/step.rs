@@ -219,9 +219,9 @@ impl World {
             }
             let tp = self.targets[j].pos;
             let captured = match p.capture.rule {
-                CaptureRule::Count => self.wolves_near(tp, p.capture.distance) >= need,
+                CaptureRule::Count => within(&self.wolves, tp, p.capture.distance).count() >= need,
                 // Rare path (only once enough wolves are close): allocation is fine here.
-                CaptureRule::Encircle => self.wolves_near(tp, p.capture.distance) >= need && encircled(&self.wolf_positions_near(tp, p.capture.distance), tp),
+                CaptureRule::Encircle => within(&self.wolves, tp, p.capture.distance).count() >= need && encircled(&within(&self.wolves, tp, p.capture.distance).collect::<Vec<_>>(), tp),
                 CaptureRule::HuntingPoints => self.at_hunting_points(j, p.bvc.radius, p.capture.arrive_tolerance),
             };
             let cornered = !captured && cornered(&self.wolves, tp, border, p.capture.distance);
@@ -248,15 +248,6 @@ impl World {
         } else {
             Outcome::Running
         };
-    }
-
-    /// Wolves within `r` of `p`.
-    fn wolves_near(&self, p: Vec2, r: f64) -> usize {
-        self.wolves.iter().filter(|w| (w.pos - p).norm() <= r).count()
-    }
-
-    fn wolf_positions_near(&self, p: Vec2, r: f64) -> Vec<Vec2> {
-        self.wolves.iter().map(|w| w.pos).filter(|q| (q - p).norm() <= r).collect()
     }
 
     /// `capture.rule: hunting_points` for target j: every wolf hunting it lies within `tol` of
@@ -287,14 +278,18 @@ pub(crate) fn cornered(wolves: &[AgentState], tp: Vec2, border: [f64; 4], d: f64
     if !walls.iter().any(|&(dist, _)| dist <= d) {
         return false;
     }
-    let near = wolves.iter().filter(|w| (w.pos - tp).norm() <= d).count();
-    if near < 2 {
+    if within(wolves, tp, d).count() < 2 {
         return false;
     }
     // Rare path (a target near a wall with two wolves at it): allocation is fine here.
-    let mut points: Vec<Vec2> = wolves.iter().map(|w| w.pos).filter(|q| (q - tp).norm() <= d).collect();
+    let mut points: Vec<Vec2> = within(wolves, tp, d).collect();
     points.extend(walls.iter().filter(|&&(dist, _)| dist <= d).map(|&(_, q)| q));
     encircled(&points, tp)
+}
+
+/// The positions of the wolves within `r` of `p` (the capture and cornered tests' "near" wolves).
+fn within(wolves: &[AgentState], p: Vec2, r: f64) -> impl Iterator<Item = Vec2> + '_ {
+    wolves.iter().map(|w| w.pos).filter(move |q| (q - p).norm() <= r)
 }
 
 /// The target lies inside (or on) the convex hull of the given points (wolves, and for the
