@@ -14,6 +14,11 @@ def validate_params(params: dict[str, Any] | None, resolve: bool = False) -> dic
     """Validates a params dict and returns it complete; with ``resolve``, derived values
     (``capture.count``) are filled in. Raises ValueError naming the offending key."""
 
+def param_limits() -> list[dict[str, Any]]:
+    """The documented range of every numeric parameter: dicts ``{key, lo, hi, open_lo, unit}``
+    (``lo`` excluded when ``open_lo``); array elements share their array's key and a table key
+    (``avoidance.wolf_single``) covers each of its fields."""
+
 def check_layout(params: dict[str, Any] | None, layout: dict[str, Any], seed: int = 0) -> dict[str, Any]:
     """Builds the world a layout describes (raising ValueError if it is malformed or
     infeasible) and returns the resolved params it implies (agent counts from the layout)."""

@@ -81,7 +81,7 @@ pub struct StepOutput {
     /// [E, M]: the first step at which each target was cornered (SPEC §6), −1 if never.
     pub cornered_step: Vec<i64>,
     /// [E, N+M]: accumulated energy (J), collision steps, and distance to the nearest
-    /// uncaptured target (wolves; NaN when none is left) / nearest wolf (targets).
+    /// uncaptured target (wolves; -1 when none is left) / nearest wolf (targets).
     pub energy: Vec<f64>,
     pub collisions: Vec<u32>,
     pub distance: Vec<f64>,
@@ -96,6 +96,9 @@ pub fn outcome_code(o: Outcome) -> u8 {
         Outcome::Cornered => 4,
     }
 }
+
+/// Most agents (worlds × (N + M)) one batch may hold: its outputs are sized by them.
+pub const MAX_BATCH_AGENTS: usize = 1 << 24;
 
 struct Slot {
     world: World,
@@ -156,8 +159,15 @@ impl BatchEnv {
         if num_envs > 1 << 20 {
             return Err(Error::Invalid(format!("num_envs must be <= {}, got {num_envs}", 1 << 20)));
         }
+        crate::episode::check_threads(threads)?;
+        let agents = num_envs * (params.world.wolves + params.world.targets);
+        if agents > MAX_BATCH_AGENTS {
+            return Err(Error::Invalid(format!(
+                "num_envs: {num_envs} worlds of {} agents are {agents} agents; a batch holds at most {MAX_BATCH_AGENTS} (each step writes an observation per agent)",
+                params.world.wolves + params.world.targets
+            )));
+        }
         let pool = match threads {
-            Some(0) => return Err(Error::Invalid("threads must be >= 1".into())),
             Some(1) => None,
             Some(t) => Some(rayon::ThreadPoolBuilder::new().num_threads(t).build().map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
             None => None,
@@ -385,7 +395,11 @@ impl BatchEnv {
         let f = |(i, (s, o)): (usize, (&mut Slot, SlotOut))| {
             let wa = if learners.wolves() { &wolf_actions[i * n * 2..(i + 1) * n * 2] } else { &[][..] };
             let ta = if learners.targets() { &target_actions[i * m * 2..(i + 1) * m * 2] } else { &[][..] };
-            step_slot(s, o, wa, ta, learners, autoreset, &params, track)
+            let (seed, episode) = (s.seed, s.episode);
+            step_slot(s, o, wa, ta, learners, autoreset, &params, track).map_err(|e| match e {
+                Error::NonFinite(m) => Error::NonFinite(format!("world {i} (seed {seed}, episode {episode}): {m}")),
+                other => other,
+            })
         };
         let results: Vec<Result<()>> = if self.inline {
             self.slots.iter_mut().zip(outs).enumerate().map(f).collect()
@@ -472,8 +486,12 @@ fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Lea
         let wc = learners.wolves().then_some(&s.wolf_cmds[..]);
         let tc = learners.targets().then_some(&s.target_cmds[..]);
         s.world.step_with(wc, tc);
-        s.rewards.step(&s.world, o.rew_w, o.rew_t);
+        if s.world.fault().is_none() {
+            s.rewards.step(&s.world, o.rew_w, o.rew_t);
+        }
     }
+    // A faulted world (a law overflowed) fails this step and every later one until it is reset.
+    s.world.check_fault()?;
     let outcome = s.world.outcome;
     *o.term = matches!(outcome, Outcome::Captured | Outcome::Cornered | Outcome::Collision);
     *o.trunc = outcome == Outcome::Timeout;
@@ -526,10 +544,12 @@ fn write_infos(w: &World, o: &mut SlotOut) {
     for (k, d) in distance.iter_mut().enumerate() {
         *d = if k < n {
             let x = nearest_target_distance(w, k);
+            // -1 when no target is left (like capture_step's -1): infos stay finite, so
+            // loggers and running means never meet a NaN.
             if x.is_finite() {
                 x
             } else {
-                f64::NAN
+                -1.0
             }
         } else {
             nearest_wolf_distance(w, k - n)

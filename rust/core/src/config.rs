@@ -263,6 +263,28 @@ pub enum TargetPolicy {
     Still,
 }
 
+impl WolfPolicy {
+    /// The name `policies.wolves` takes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Seed000 => "seed000",
+            Self::Bvc => "bvc",
+            Self::Formation => "formation",
+        }
+    }
+}
+
+impl TargetPolicy {
+    /// The name `policies.targets` takes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Escape => "escape",
+            Self::Random => "random",
+            Self::Still => "still",
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PolicyParams {
@@ -598,33 +620,7 @@ fn bad(key: &str, why: impl std::fmt::Display) -> Error {
     Error::Params(format!("{key}: {why}"))
 }
 
-fn positive(key: &str, x: f64) -> Result<()> {
-    if x.is_finite() && x > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(key, format!("must be a finite number > 0, got {x}")))
-    }
-}
-
-fn non_negative(key: &str, x: f64) -> Result<()> {
-    if x.is_finite() && x >= 0.0 {
-        Ok(())
-    } else {
-        Err(bad(key, format!("must be a finite number >= 0, got {x}")))
-    }
-}
-
-fn finite(key: &str, x: f64) -> Result<()> {
-    if x.is_finite() {
-        Ok(())
-    } else {
-        Err(bad(key, format!("must be finite, got {x}")))
-    }
-}
-
-fn range(key: &str, r: [f64; 2]) -> Result<()> {
-    positive(key, r[0])?;
-    positive(key, r[1])?;
+fn ordered(key: &str, r: [f64; 2]) -> Result<()> {
     if r[0] > r[1] {
         return Err(bad(key, format!("lower bound {} exceeds upper bound {}", r[0], r[1])));
     }
@@ -660,164 +656,56 @@ impl Params {
         p
     }
 
-    /// Range and cross-field checks. Each error names its key.
+    /// Range and cross-field checks. Each error names its key and, for a range, the allowed
+    /// interval ([`crate::limits::LIMITS`]: every numeric key has one).
     pub fn validate(&self) -> Result<()> {
+        let tree = serde_json::to_value(self).map_err(|e| Error::Params(format!("params: {e}")))?;
+        crate::limits::check(&tree)?;
+
         let w = &self.world;
-        for (i, b) in w.border.iter().enumerate() {
-            finite(&format!("world.border[{i}]"), *b)?;
-        }
-        if w.border[0] >= w.border[2] {
-            return Err(bad("world.border", format!("x_min {} must be < x_max {}", w.border[0], w.border[2])));
-        }
-        if w.border[1] >= w.border[3] {
-            return Err(bad("world.border", format!("y_min {} must be < y_max {}", w.border[1], w.border[3])));
-        }
-        positive("world.ts", w.ts)?;
-        if w.max_steps < 1 {
-            return Err(bad("world.max_steps", "must be >= 1"));
-        }
-        if w.wolves < 1 {
-            return Err(bad("world.wolves", "must be >= 1"));
-        }
-        if w.targets < 1 {
-            return Err(bad("world.targets", "must be >= 1"));
+        let [x0, y0, x1, y1] = w.border;
+        for (axis, size) in [("width x_max - x_min", x1 - x0), ("height y_max - y_min", y1 - y0)] {
+            if !(1.0..=1e4).contains(&size) {
+                return Err(bad("world.border", format!("{axis} must be in [1, 1e4] m, got {size}")));
+            }
         }
         // Bounded so that per-step (N+M)² work and logs stay sane; far beyond the field's use.
         if w.wolves + w.targets > 1024 {
-            return Err(bad("world.wolves", "wolves + targets must be <= 1024"));
+            return Err(bad("world.wolves", format!("wolves + targets must be <= 1024, got {} + {}", w.wolves, w.targets)));
         }
-        non_negative("world.init_clearance", w.init_clearance)?;
-        if w.retarget_period < 1 {
-            return Err(bad("world.retarget_period", "must be >= 1"));
-        }
-        if w.spawn_attempts < 1 {
-            return Err(bad("world.spawn_attempts", "must be >= 1"));
-        }
-        if w.spawn_restarts < 1 {
-            return Err(bad("world.spawn_restarts", "must be >= 1"));
-        }
-
-        for (side, s) in [("agents.wolf", self.agents.wolf.clone()), ("agents.target", self.agents.target.side())] {
-            positive(&format!("{side}.v_max"), s.v_max)?;
-            positive(&format!("{side}.omega_max"), s.omega_max)?;
-            positive(&format!("{side}.mass"), s.mass)?;
-            positive(&format!("{side}.sense_radius"), s.sense_radius)?;
-        }
-        positive("agents.body.base", self.agents.body.base)?;
-        positive("agents.body.height", self.agents.body.height)?;
 
         let o = &self.obstacles;
-        range("obstacles.circle_radius", o.circle_radius)?;
-        range("obstacles.polygon_size", o.polygon_size)?;
+        ordered("obstacles.circle_radius", o.circle_radius)?;
+        ordered("obstacles.polygon_size", o.polygon_size)?;
         let [lo, hi] = o.polygon_vertices;
-        if lo < 4 || lo > hi || hi > 256 {
-            return Err(bad("obstacles.polygon_vertices", format!("need 4 <= lo <= hi <= 256, got [{lo}, {hi}]")));
+        if lo > hi {
+            return Err(bad("obstacles.polygon_vertices", format!("lower bound {lo} exceeds upper bound {hi}")));
         }
-        if !(o.polygon_inner > 0.0 && o.polygon_inner <= 1.0) {
-            return Err(bad("obstacles.polygon_inner", format!("must be in (0, 1], got {}", o.polygon_inner)));
-        }
-        non_negative("obstacles.rotation_max", o.rotation_max)?;
-        non_negative("obstacles.speed_std", o.speed_std)?;
         if o.total() > 10_000 {
-            return Err(bad("obstacles", "more than 10000 obstacles"));
+            return Err(bad("obstacles", format!("more than 10000 obstacles ({})", o.total())));
         }
 
-        positive("capture.distance", self.capture.distance)?;
-        positive("capture.arrive_tolerance", self.capture.arrive_tolerance)?;
         if let Some(c) = self.capture.count {
-            if c < 1 {
-                return Err(bad("capture.count", "must be >= 1"));
-            }
             if c > w.wolves {
                 return Err(bad("capture.count", format!("{c} exceeds world.wolves = {}", w.wolves)));
             }
         }
 
-        let s = &self.seed000;
-        for (k, x) in [("alpha", s.alpha), ("varsigma", s.varsigma), ("tau1", s.tau1), ("tau2", s.tau2), ("tau3", s.tau3), ("beta", s.beta)] {
-            finite(&format!("seed000.{k}"), x)?;
-        }
-        positive("seed000.radius", s.radius)?;
-        non_negative("seed000.lost_speed", s.lost_speed)?;
-        non_negative("seed000.partner_range", s.partner_range)?;
-        non_negative("seed000.partner_half_angle", s.partner_half_angle)?;
-        non_negative("seed000.partner_danger", s.partner_danger)?;
-        let b = &self.bvc;
-        positive("bvc.radius", b.radius)?;
-        non_negative("bvc.safety_radius", b.safety_radius)?;
-        non_negative("bvc.d_min", b.d_min)?;
-        if b.assignment_period < 1 {
-            return Err(bad("bvc.assignment_period", format!("must be an integer >= 1, got {}", b.assignment_period)));
-        }
-        if b.disc_sides < 8 || b.disc_sides > 1024 {
-            return Err(bad("bvc.disc_sides", format!("must be an integer in 8..=1024, got {}", b.disc_sides)));
-        }
-
-        let a = &self.avoidance;
-        positive("avoidance.obstacle_range", a.obstacle_range)?;
-        positive("avoidance.wall_range", a.wall_range)?;
-        non_negative("avoidance.danger_distance", a.danger_distance)?;
-        non_negative("avoidance.edge_margin", a.edge_margin)?;
-        non_negative("avoidance.early_exit_distance", a.early_exit_distance)?;
-        for (k, r) in [("wolf_single", a.wolf_single), ("wolf_multi", a.wolf_multi), ("target_single", a.target_single), ("target_multi", a.target_multi)] {
-            for (f, x) in [("wall", r.wall), ("circle", r.circle), ("static_polygon", r.static_polygon), ("moving_polygon", r.moving_polygon)] {
-                positive(&format!("avoidance.{k}.{f}"), x)?;
-            }
-        }
-
-        let e = &self.escape;
-        non_negative("escape.wander_speed", e.wander_speed)?;
-        non_negative("escape.wander_turn", e.wander_turn)?;
-        positive("escape.fatigue_base", e.fatigue_base)?;
-        finite("escape.fatigue_slope", e.fatigue_slope)?;
-        finite("escape.fatigue_delay", e.fatigue_delay)?;
-
-        let l = &self.env.lidar;
-        if l.rays > 1024 {
-            return Err(bad("env.lidar.rays", format!("must be <= 1024, got {}", l.rays)));
-        }
-        positive("env.lidar.range", l.range)?;
-        let r = &self.rewards;
-        for (k, x) in [
-            ("wolves.capture_bonus", r.wolves.capture_bonus),
-            ("wolves.shaping", r.wolves.shaping),
-            ("wolves.collision_penalty", r.wolves.collision_penalty),
-            ("wolves.time_penalty", r.wolves.time_penalty),
-            ("targets.survival", r.targets.survival),
-            ("targets.capture_penalty", r.targets.capture_penalty),
-            ("targets.collision_penalty", r.targets.collision_penalty),
-        ] {
-            finite(&format!("rewards.{k}"), x)?;
-        }
-
         let f = &self.formation;
-        for (k, x) in [("radius", f.radius), ("spacing", f.spacing), ("comm_radius", f.comm_radius), ("detect_radius", f.detect_radius), ("lead", f.lead)] {
-            positive(&format!("formation.{k}"), x)?;
-        }
-        for (k, x) in [
-            ("alpha", f.alpha),
-            ("beta", f.beta),
-            ("gamma", f.gamma),
-            ("k_spacing", f.k_spacing),
-            ("k_obstacle", f.k_obstacle),
-            ("leader_speed", f.leader_speed),
-            ("wolf_diameter", f.wolf_diameter),
-            ("clearance", f.clearance),
-        ] {
-            non_negative(&format!("formation.{k}"), x)?;
-        }
         if f.clearance < f.wolf_diameter / 2.0 {
             // With this the path search, which inflates each disc by the clearance, can never
             // pass between two members of a merged structure (gap <= wolf_diameter).
             return Err(bad("formation.clearance", format!("must be at least formation.wolf_diameter / 2 = {}, got {}", f.wolf_diameter / 2.0, f.clearance)));
         }
-        if !(f.bump_delta > 0.0 && f.bump_delta < 1.0) {
-            return Err(bad("formation.bump_delta", format!("must lie in (0, 1), got {}", f.bump_delta)));
-        }
-        if f.ring_points < 4 || f.ring_points > 256 {
-            return Err(bad("formation.ring_points", format!("must be an integer in 4..=256, got {}", f.ring_points)));
-        }
         Ok(())
+    }
+
+    /// Bytes one recorded episode needs at most (poses, energies, interaction matrices and
+    /// obstacle poses for every step up to `world.max_steps`), checked before recording.
+    pub fn recorded_episode_bytes(&self) -> u64 {
+        let (n, m, k) = (self.world.wolves as u64, self.world.targets as u64, self.obstacles.total() as u64);
+        let rows = self.world.max_steps as u64 + 1;
+        rows * (8 * (5 * (n + m) + (n + m) + 3 * k)) + (rows - 1) * (n + m) * (n + m)
     }
 }
 

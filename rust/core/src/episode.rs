@@ -1,6 +1,7 @@
 //! Whole episodes: run a world to its end, record the logs of SPEC §8, and run many episodes
 //! in parallel with results independent of the thread count (episode k uses seed `seed + k`).
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use rayon::prelude::*;
@@ -89,15 +90,48 @@ pub struct EpisodeResult {
     pub trajectory: Option<Trajectory>,
 }
 
+/// Trajectory rows reserved up front when recording (the documented episode has <= 301).
+const RESERVED_ROWS: usize = 512;
+
+/// The most memory one recorded episode may need (its worst case, at `world.max_steps`).
+pub const MAX_RECORDED_EPISODE_BYTES: u64 = 2 << 30;
+
+/// Most threads a pool may have: each reserves a stack, and more threads than cores only slow
+/// the work down.
+pub const MAX_THREADS: usize = 256;
+
+/// Checks a thread count (`None`: all cores).
+pub fn check_threads(threads: Option<usize>) -> Result<()> {
+    match threads {
+        Some(t) if !(1..=MAX_THREADS).contains(&t) => Err(Error::Invalid(format!("threads must be in 1..={MAX_THREADS}, got {t}"))),
+        _ => Ok(()),
+    }
+}
+
+fn at_seed(e: Error, seed: u64) -> Error {
+    match e {
+        Error::NonFinite(m) => Error::NonFinite(format!("{m} (episode seed {seed})")),
+        other => other,
+    }
+}
+
 /// Runs one scripted episode.
 pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, record: bool) -> Result<EpisodeResult> {
+    run_episode_until(params, seed, layout, record, &AtomicBool::new(false))
+}
+
+/// [`run_episode`] that gives up with [`Error::Interrupted`] as soon as `stop` is set (checked
+/// every step: one relaxed load).
+pub fn run_episode_until(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, record: bool, stop: &AtomicBool) -> Result<EpisodeResult> {
     let mut world = match layout {
         Some(l) => World::from_layout(params.clone(), seed, l)?,
         None => World::new(params.clone(), seed)?,
     };
     let (n, m) = (world.n_wolves(), world.n_targets());
     let mut traj = record.then(|| {
-        let rows = world.params.world.max_steps as usize + 1;
+        // Capacity for a typical episode; the vectors grow if it runs longer. Preallocating
+        // for max_steps would reserve up to gigabytes per episode that ends after 150 steps.
+        let rows = (world.params.world.max_steps as usize + 1).min(RESERVED_ROWS);
         let mut t = Trajectory {
             wolves: Vec::with_capacity(rows * n * 5),
             targets: Vec::with_capacity(rows * m * 5),
@@ -110,7 +144,11 @@ pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, rec
         t
     });
     while !world.is_done() {
+        if stop.load(Ordering::Relaxed) {
+            return Err(Error::Interrupted);
+        }
         world.step();
+        world.check_fault().map_err(|e| at_seed(e, seed))?;
         if let Some(t) = traj.as_mut() {
             t.push(&world);
             t.interaction.extend_from_slice(&world.interaction);
@@ -135,9 +173,25 @@ pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, rec
 /// threads (`None`: all cores). Results come back in episode order and do not depend on the
 /// thread count: each episode owns its generator.
 pub fn run_episodes(params: &Params, seed: u64, first: u64, count: u64, layout: Option<&Layout>, record: bool, threads: Option<usize>) -> Result<Vec<EpisodeResult>> {
+    run_episodes_until(params, seed, first, count, layout, record, threads, &AtomicBool::new(false))
+}
+
+/// [`run_episodes`] that stops within a step of every running episode once `stop` is set, and
+/// then returns [`Error::Interrupted`] (the Python binding sets it on Ctrl-C).
+#[allow(clippy::too_many_arguments)]
+pub fn run_episodes_until(params: &Params, seed: u64, first: u64, count: u64, layout: Option<&Layout>, record: bool, threads: Option<usize>, stop: &AtomicBool) -> Result<Vec<EpisodeResult>> {
     params.validate()?;
+    check_threads(threads)?;
+    if record && params.recorded_episode_bytes() > MAX_RECORDED_EPISODE_BYTES {
+        return Err(Error::Params(format!(
+            "world.max_steps: a recorded episode of {} steps with these agent and obstacle counts needs up to {:.1} GiB (limit {} GiB); lower world.max_steps or record fewer agents",
+            params.world.max_steps,
+            params.recorded_episode_bytes() as f64 / (1u64 << 30) as f64,
+            MAX_RECORDED_EPISODE_BYTES >> 30
+        )));
+    }
     let params = Arc::new(params.clone());
-    let work = || (first..first + count).into_par_iter().map(|k| run_episode(&params, seed.wrapping_add(k), layout, record)).collect::<Result<Vec<_>>>();
+    let work = || (first..first + count).into_par_iter().map(|k| run_episode_until(&params, seed.wrapping_add(k), layout, record, stop)).collect::<Result<Vec<_>>>();
     match threads {
         None => work(),
         Some(t) => rayon::ThreadPoolBuilder::new()

@@ -13,6 +13,13 @@ pub enum Error {
     /// Random spawning could not place everything within its bounded number of attempts.
     #[error("spawn: {0}")]
     Spawn(String),
+    /// A step produced a non-finite number (a law's arithmetic overflowed inside the allowed
+    /// parameter ranges). Names the law, the agent and the step; the episode ends there.
+    #[error("{0}")]
+    NonFinite(String),
+    /// The caller asked the work to stop (Ctrl-C in Python); nothing was returned.
+    #[error("interrupted")]
+    Interrupted,
     /// Anything else the caller did wrong (shapes, actions, unimplemented policies).
     #[error("{0}")]
     Invalid(String),

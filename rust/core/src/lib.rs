@@ -8,6 +8,7 @@ pub mod config;
 pub mod episode;
 pub mod error;
 pub mod geometry;
+pub mod limits;
 pub mod math;
 pub mod observe;
 pub mod policies;

@@ -99,6 +99,36 @@ fn layout_errors_name_the_problem() {
 }
 
 #[test]
+fn degenerate_or_overlapping_layouts_are_refused_with_the_obstacle_named() {
+    let p = Arc::new(params());
+    let poly = |center: [f64; 2], vertices: Vec<[f64; 2]>| LayoutObstacle::Polygon { center, vertices, moving: false };
+    let square = |cx: f64| poly([cx, 0.0], vec![[cx - 1.0, -1.0], [cx + 1.0, -1.0], [cx + 1.0, 1.0], [cx - 1.0, 1.0]]);
+    let agents = |obstacles| layout(vec![[-8.0, -8.0, 0.0]], vec![[8.0, 8.0, 0.0]], obstacles);
+    let cases = [
+        // The ring bvc's convex hull choked on: a repeated vertex.
+        (agents(vec![poly([0.0, 0.0], vec![[-1.0, -1.0], [1.0, -1.0], [1.0, -1.0], [0.0, 1.0]])]), "obstacle 0: degenerate polygon (vertices 1 and 2 coincide)"),
+        (agents(vec![poly([0.0, 0.0], vec![[-1.0, 0.0], [0.0, 0.0], [1.0, 0.0]])]), "obstacle 0: degenerate polygon (vertices 2, 0 and 1 are collinear)"),
+        (agents(vec![poly([0.0, 0.0], vec![[-1.0, -1.0], [0.0, -1.0], [1.0, -1.0], [0.0, 1.0]])]), "vertices 0, 1 and 2 are collinear"),
+        (agents(vec![poly([0.0, 0.0], vec![[0.0, 0.0]; 4])]), "all vertices coincide"),
+        (agents(vec![square(0.0), square(1.5)]), "obstacle 1 overlaps obstacle 0"),
+        (agents(vec![square(0.0), LayoutObstacle::Circle { center: [0.0, 1.8], radius: 1.0, moving: false }]), "obstacle 1 overlaps obstacle 0"),
+        (agents(vec![square(0.0), LayoutObstacle::Circle { center: [0.0, 0.0], radius: 0.2, moving: true }]), "obstacle 1 overlaps obstacle 0"),
+        (agents(vec![LayoutObstacle::Circle { center: [9.5, 0.0], radius: 1.0, moving: false }]), "obstacle 0: the circle at [9.5, 0.0] with radius 1 crosses the arena's wall"),
+        (agents(vec![LayoutObstacle::Circle { center: [0.0, 0.0], radius: 1e39, moving: false }]), "obstacle 0: radius must be in (0, 1000] m"),
+        (layout(vec![[0.0, 0.0, 0.0]], vec![[0.05, 0.0, 0.0]], vec![]), "target 0 overlaps wolf 0"),
+        (layout(vec![[0.0, 0.0, 0.0]], vec![[5.0, 0.0, 0.0], [5.05, 0.0, 0.0]], vec![]), "target 1 overlaps target 0"),
+    ];
+    for (l, needle) in cases {
+        let e = World::from_layout(p.clone(), 0, &l).unwrap_err();
+        assert!(matches!(e, Error::Layout(_)), "{e}");
+        assert!(e.to_string().contains(needle), "{e} lacks {needle}");
+    }
+    // Neighbours that do not touch are fine, and so is a circle tangent to nothing.
+    let ok = agents(vec![square(0.0), square(2.5), LayoutObstacle::Circle { center: [0.0, 3.0], radius: 0.9, moving: false }]);
+    World::from_layout(p, 0, &ok).unwrap();
+}
+
+#[test]
 fn a_layout_sets_the_agent_counts_and_the_derived_capture_count() {
     let l = layout(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], vec![[5.0, 0.0, 0.0], [-5.0, 0.0, 0.0]], vec![]);
     let w = World::from_layout(Arc::new(params()), 0, &l).unwrap();
@@ -185,6 +215,23 @@ fn without_the_filter_a_wolf_can_collide() {
     // Apex reaches x = 0.5 after 0.3 m of travel: step 2 (0.15 per step).
     assert_eq!(steps + 1, 2);
     assert_eq!(w.collisions[0], 1);
+}
+
+#[test]
+fn without_the_filter_the_walls_still_hold() {
+    // Wolf 0.05 m from the east wall heading into it, target 0.05 m from the north wall.
+    let l = layout(vec![[9.95, 0.0, 0.0]], vec![[0.0, 9.95, std::f64::consts::FRAC_PI_2]], vec![]);
+    let mut p = params();
+    p.world.feasibility_filter = false;
+    let mut w = World::from_layout(Arc::new(p), 0, &l).unwrap();
+    w.step_with(Some(&cmds(1, 1.5, 2.0)), Some(&cmds(1, 1.5, 0.0)));
+    let (a, t) = (w.wolves[0], w.targets[0]);
+    assert_eq!((a.pos.x, a.pos.y, a.v), (9.95, 0.0, 0.0), "the wolf stays, only turning");
+    assert!((a.theta - 0.2).abs() < 1e-15);
+    assert_eq!((t.pos.x, t.pos.y, t.v), (0.0, 9.95, 0.0));
+    // A move that stays inside is made as commanded, without halving.
+    w.step_with(Some(&cmds(1, 0.2, 0.0)), Some(&cmds(1, 0.0, 0.0)));
+    assert!((w.wolves[0].pos.x - (9.95 + 0.02 * 0.2f64.cos())).abs() < 1e-12);
 }
 
 fn ring(n: usize, r: f64) -> Vec<[f64; 3]> {

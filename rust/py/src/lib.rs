@@ -5,6 +5,9 @@
 //! `RuntimeError` — it never unwinds into Python.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, RecvTimeoutError};
+use std::time::Duration;
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -12,7 +15,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pythonize::pythonize;
 use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
-use wolfpack_core::episode::{run_episodes as core_run_episodes, EpisodeResult, Trajectory};
+use wolfpack_core::episode::{run_episodes_until, EpisodeResult, Trajectory};
 use wolfpack_core::world::{Layout, World};
 use wolfpack_core::render::{render, Scene};
 use wolfpack_core::{Error, Params};
@@ -33,6 +36,42 @@ fn guarded<T>(f: impl FnOnce() -> T) -> PyResult<T> {
     })
 }
 
+/// How often a long native call looks for a pending signal (Ctrl-C) while it runs.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// Runs `work` on a helper thread with the GIL released while this thread looks for pending
+/// signals every [`SIGNAL_POLL`]. On one (Ctrl-C), `stop` is set — the work checks it every
+/// step and returns within a step — and the signal's exception (KeyboardInterrupt) is raised.
+/// Python's signal handlers only run on the main thread with the GIL, so a native loop that
+/// never returns to Python would otherwise ignore Ctrl-C until it ends.
+fn interruptible<T: Send>(py: Python<'_>, stop: &AtomicBool, work: impl FnOnce() -> PyResult<T> + Send) -> PyResult<T> {
+    py.detach(|| {
+        std::thread::scope(|scope| {
+            let (tx, rx) = channel();
+            scope.spawn(move || {
+                let _ = tx.send(work());
+            });
+            loop {
+                match rx.recv_timeout(SIGNAL_POLL) {
+                    Ok(result) => return result,
+                    Err(RecvTimeoutError::Timeout) => {
+                        if let Err(signal) = Python::attach(|py| py.check_signals()) {
+                            stop.store(true, Ordering::Relaxed);
+                            let _ = rx.recv(); // the work ends within a step
+                            return Err(signal);
+                        }
+                    }
+                    Err(RecvTimeoutError::Disconnected) => return Err(PyRuntimeError::new_err("internal error in wolfpack core (please report): the worker thread ended without a result")),
+                }
+            }
+        })
+    })
+}
+
+/// Deepest nesting a params or layout tree may have (the real ones are 3 levels deep); deeper
+/// input is refused before anything recurses over it.
+const MAX_DEPTH: usize = 32;
+
 fn params_from(obj: &Bound<'_, PyAny>) -> PyResult<Params> {
     if obj.is_none() {
         return Ok(Params::default());
@@ -47,12 +86,15 @@ fn params_from(obj: &Bound<'_, PyAny>) -> PyResult<Params> {
 /// `bool` is not an integer here, as it would be through a generic converter). Values JSON
 /// cannot hold are rejected with their key path: integers beyond 64 bits, NaN and ±inf.
 fn plain_value(obj: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
-    to_plain(obj, &mut String::new())
+    to_plain(obj, &mut String::new(), 0)
 }
 
-fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String) -> PyResult<serde_json::Value> {
+fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize) -> PyResult<serde_json::Value> {
     use serde_json::Value;
     let at = |path: &str| if path.is_empty() { "params".to_string() } else { path.to_string() };
+    if depth > MAX_DEPTH {
+        return Err(PyValueError::new_err(format!("{}: nested deeper than {MAX_DEPTH} levels", at(path))));
+    }
     if obj.is_none() {
         Ok(Value::Null)
     } else if let Ok(b) = obj.cast::<PyBool>() {
@@ -81,7 +123,7 @@ fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String) -> PyResult<serde_json::V
                 path.push('.');
             }
             path.push_str(&key);
-            let value = to_plain(&v, path)?;
+            let value = to_plain(&v, path, depth + 1)?;
             path.truncate(len);
             map.insert(key, value);
         }
@@ -91,7 +133,7 @@ fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String) -> PyResult<serde_json::V
         for (i, v) in obj.try_iter()?.enumerate() {
             let len = path.len();
             path.push_str(&format!("[{i}]"));
-            items.push(to_plain(&v?, path)?);
+            items.push(to_plain(&v?, path, depth + 1)?);
             path.truncate(len);
         }
         Ok(Value::Array(items))
@@ -115,7 +157,9 @@ fn layout_from(obj: &Bound<'_, PyAny>) -> PyResult<Option<Layout>> {
     if !obj.is_instance_of::<PyDict>() {
         return Err(PyValueError::new_err(format!("layout must be a dict, got {}", obj.get_type().name()?)));
     }
-    serde_path_to_error::deserialize(plain_value(obj)?).map(Some).map_err(|e| {
+    let py = obj.py();
+    let tree = plain_value(obj).map_err(|e| PyValueError::new_err(format!("layout: {}", e.value(py))))?;
+    serde_path_to_error::deserialize(tree).map(Some).map_err(|e| {
         let path = e.path().to_string();
         PyValueError::new_err(format!("layout: {path}: {}", e.into_inner()))
     })
@@ -140,6 +184,24 @@ fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
 fn validate_params<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, resolve: bool) -> PyResult<Bound<'py, PyAny>> {
     let p = params_from(params)?;
     params_to_py(py, &if resolve { p.resolved() } else { p })
+}
+
+/// The documented range of every numeric parameter (`wolfpack_core::limits::LIMITS`): a list of
+/// dicts `{key, lo, hi, open_lo, unit}`; `key` is dotted, array elements share their array's key,
+/// and a table key (`avoidance.wolf_single`) covers each of its fields.
+#[pyfunction]
+fn param_limits(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
+    let out = PyList::empty(py);
+    for l in wolfpack_core::limits::LIMITS {
+        let d = PyDict::new(py);
+        d.set_item("key", l.key)?;
+        d.set_item("lo", l.lo)?;
+        d.set_item("hi", l.hi)?;
+        d.set_item("open_lo", l.open_lo)?;
+        d.set_item("unit", l.unit)?;
+        out.append(d)?;
+    }
+    Ok(out)
 }
 
 /// Checks a layout against params by building the world it describes; returns the resolved
@@ -222,10 +284,8 @@ fn run_episodes<'py>(
         Some(obj) => layout_from(obj)?,
         None => None,
     };
-    if threads == Some(0) {
-        return Err(PyValueError::new_err("threads must be >= 1"));
-    }
-    let results = py.detach(|| guarded(|| core_run_episodes(&p, seed, first, count, l.as_ref(), record, threads)))?.map_err(value_error)?;
+    let stop = AtomicBool::new(false);
+    let results = interruptible(py, &stop, || guarded(|| run_episodes_until(&p, seed, first, count, l.as_ref(), record, threads, &stop))?.map_err(value_error))?;
     let out = PyList::empty(py);
     for r in results {
         out.append(result_to_py(py, r)?)?;
@@ -447,9 +507,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // Panics are caught at the border and reported as RuntimeError; keep their default
     // "thread panicked at" text off the user's terminal.
     std::panic::set_hook(Box::new(|_| {}));
+    // Fetch NumPy's C API now, at import: fetched lazily, the first array built after a Ctrl-C
+    // would fail to import it (KeyboardInterrupt pending) and rust-numpy would panic.
+    let _ = PyArray1::<f64>::zeros(m.py(), 1, false);
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(validate_params, m)?)?;
+    m.add_function(wrap_pyfunction!(param_limits, m)?)?;
     m.add_function(wrap_pyfunction!(check_layout, m)?)?;
     m.add_function(wrap_pyfunction!(run_episodes, m)?)?;
     m.add_function(wrap_pyfunction!(render_frame, m)?)?;

@@ -122,6 +122,9 @@ pub struct World {
     /// follows the episode (for [`World::expert_desired`], imitation learning). Off by default:
     /// it costs a law evaluation per agent and step.
     pub track_laws: bool,
+    /// Set when a step produced a non-finite command or pose (see [`World::fault`]); the world
+    /// is then done and does not move again.
+    fault: Option<String>,
     rng_motion: ChaCha8Rng,
     rng_policy: ChaCha8Rng,
     // Per-step scratch, kept to avoid allocation on the hot path.
@@ -191,6 +194,7 @@ impl World {
             collisions: vec![0; n + m],
             outcome: Outcome::Running,
             track_laws: false,
+            fault: None,
             rng_motion: stream(seed, episode, STREAM_MOTION),
             rng_policy: stream(seed, episode, STREAM_POLICY),
             wolf_cmds: vec![Command::default(); n],
@@ -211,7 +215,21 @@ impl World {
     }
 
     pub fn is_done(&self) -> bool {
-        self.outcome != Outcome::Running
+        self.outcome != Outcome::Running || self.fault.is_some()
+    }
+
+    /// Why the world stopped with an error: a law (or given commands) produced a non-finite
+    /// number. Episode runners and the batch turn it into [`crate::Error::NonFinite`].
+    pub fn fault(&self) -> Option<&str> {
+        self.fault.as_deref()
+    }
+
+    /// [`World::fault`] as an error, for `?`.
+    pub fn check_fault(&self) -> crate::error::Result<()> {
+        match &self.fault {
+            Some(f) => Err(crate::error::Error::NonFinite(f.clone())),
+            None => Ok(()),
+        }
     }
 
     /// The body triangle of an agent state.

@@ -141,8 +141,12 @@ fn check_obstacle(k: usize, o: &LayoutObstacle, p: &Params) -> Result<Obstacle> 
             if !inside(*center) {
                 return Err(Error::Layout(format!("obstacle {k}: centre {center:?} is outside the arena")));
             }
-            if !(radius.is_finite() && *radius > 0.0) {
-                return Err(Error::Layout(format!("obstacle {k}: radius must be > 0, got {radius}")));
+            if !(radius.is_finite() && *radius > 0.0 && *radius <= MAX_LAYOUT_RADIUS) {
+                return Err(Error::Layout(format!("obstacle {k}: radius must be in (0, {MAX_LAYOUT_RADIUS}] m, got {radius}")));
+            }
+            let [cx, cy] = *center;
+            if cx - radius < x0 || cx + radius > x1 || cy - radius < y0 || cy + radius > y1 {
+                return Err(Error::Layout(format!("obstacle {k}: the circle at {center:?} with radius {radius} crosses the arena's wall")));
             }
             Ok(Obstacle::circle(v2(*center), *radius, *moving))
         }
@@ -150,17 +154,73 @@ fn check_obstacle(k: usize, o: &LayoutObstacle, p: &Params) -> Result<Obstacle> 
             if !inside(*center) {
                 return Err(Error::Layout(format!("obstacle {k}: centre {center:?} is outside the arena")));
             }
-            if vertices.len() < 3 {
-                return Err(Error::Layout(format!("obstacle {k}: a polygon needs >= 3 vertices, got {}", vertices.len())));
+            if vertices.len() < 3 || vertices.len() > MAX_LAYOUT_VERTICES {
+                return Err(Error::Layout(format!("obstacle {k}: a polygon needs 3..={MAX_LAYOUT_VERTICES} vertices, got {}", vertices.len())));
             }
             if let Some(v) = vertices.iter().find(|v| !inside(**v)) {
                 return Err(Error::Layout(format!("obstacle {k}: vertex {v:?} is outside the arena")));
             }
             let verts: Vec<Vec2> = vertices.iter().map(|v| v2(*v)).collect();
-            if !is_simple(&verts) {
-                return Err(Error::Layout(format!("obstacle {k}: polygon edges cross (vertices must go around the polygon in order)")));
+            if let Some(why) = degenerate(&verts) {
+                return Err(Error::Layout(format!("obstacle {k}: degenerate polygon ({why})")));
             }
             Ok(Obstacle::polygon(v2(*center), verts, *moving))
+        }
+    }
+}
+
+/// Largest circle radius and vertex count a layout may use (those of spawned obstacles are far
+/// smaller; see `obstacles.circle_radius`, `obstacles.polygon_vertices`).
+const MAX_LAYOUT_RADIUS: f64 = 1000.0;
+const MAX_LAYOUT_VERTICES: usize = 1024;
+const MAX_LAYOUT_OBSTACLES: usize = 10_000;
+
+/// Why a vertex ring does not bound a proper polygon: repeated consecutive vertices, three
+/// consecutive vertices on one line, crossing edges, or no area. Tolerances are relative to the polygon's size,
+/// so the test means the same at any scale; such rings break the convex hulls and tangent
+/// computations of the laws.
+fn degenerate(v: &[Vec2]) -> Option<String> {
+    let n = v.len();
+    let c = v.iter().fold(Vec2::zeros(), |a, b| a + b) / n as f64;
+    let scale = v.iter().map(|p| (p - c).norm()).fold(0.0, f64::max);
+    if scale == 0.0 {
+        return Some("all vertices coincide".into());
+    }
+    for i in 0..n {
+        let (a, b, d) = (v[(i + n - 1) % n], v[i], v[(i + 1) % n]);
+        if (d - b).norm() <= 1e-9 * scale {
+            return Some(format!("vertices {i} and {} coincide", (i + 1) % n));
+        }
+        let (e1, e2) = (b - a, d - b);
+        if (e1.x * e2.y - e1.y * e2.x).abs() <= 1e-9 * scale * scale {
+            return Some(format!("vertices {}, {i} and {} are collinear", (i + n - 1) % n, (i + 1) % n));
+        }
+    }
+    if !is_simple(v) {
+        return Some("edges cross: vertices must go around the polygon in order".into());
+    }
+    let area2: f64 = (0..n).map(|i| v[i].x * v[(i + 1) % n].y - v[(i + 1) % n].x * v[i].y).sum();
+    if area2.abs() <= 1e-9 * scale * scale {
+        return Some("zero area".into());
+    }
+    None
+}
+
+/// Whether two layout obstacles overlap: discs by distance, a disc and a polygon by the
+/// polygon's surface distance from the centre, two polygons by crossing edges or a vertex of
+/// one inside the other.
+fn obstacles_overlap(a: &Obstacle, b: &Obstacle) -> bool {
+    if (a.center - b.center).norm() > a.radius + b.radius {
+        return false; // bounding discs apart
+    }
+    match (a.is_polygon(), b.is_polygon()) {
+        (false, false) => true,
+        (true, false) => a.distance(b.center) < b.radius,
+        (false, true) => b.distance(a.center) < a.radius,
+        (true, true) => {
+            let (p, q) = (&a.vertices, &b.vertices);
+            let crossing = (0..p.len()).any(|i| (0..q.len()).any(|j| crate::geometry::segments_intersect(p[i], p[(i + 1) % p.len()], q[j], q[(j + 1) % q.len()])));
+            crossing || crate::geometry::polygon_contains(q, p[0]) || crate::geometry::polygon_contains(p, q[0])
         }
     }
 }
@@ -184,7 +244,15 @@ fn is_simple(v: &[Vec2]) -> bool {
 pub(super) fn from_layout(p: &Params, layout: &Layout) -> Result<Spawned> {
     let wolves = layout.wolves.iter().enumerate().map(|(i, w)| check_pose(&format!("wolf {i}"), *w, p)).collect::<Result<Vec<_>>>()?;
     let targets = layout.targets.iter().enumerate().map(|(j, t)| check_pose(&format!("target {j}"), *t, p)).collect::<Result<Vec<_>>>()?;
+    if layout.obstacles.len() > MAX_LAYOUT_OBSTACLES {
+        return Err(Error::Layout(format!("at most {MAX_LAYOUT_OBSTACLES} obstacles, got {}", layout.obstacles.len())));
+    }
     let obstacles = layout.obstacles.iter().enumerate().map(|(k, o)| check_obstacle(k, o, p)).collect::<Result<Vec<_>>>()?;
+    for (k, o) in obstacles.iter().enumerate() {
+        if let Some(j) = obstacles[..k].iter().position(|other| obstacles_overlap(o, other)) {
+            return Err(Error::Layout(format!("obstacle {k} overlaps obstacle {j}")));
+        }
+    }
     let b = &p.agents.body;
     let bodies: Vec<[Vec2; 3]> = wolves.iter().map(|w| body_triangle(w.pos, w.theta, b.base, b.height)).collect();
     for (i, wb) in bodies.iter().enumerate() {
@@ -195,10 +263,16 @@ pub(super) fn from_layout(p: &Params, layout: &Layout) -> Result<Spawned> {
             return Err(Error::Layout(format!("wolf {i} overlaps wolf {j}")));
         }
     }
-    for (j, t) in targets.iter().enumerate() {
-        let tb = body_triangle(t.pos, t.theta, b.base, b.height);
-        if let Some(k) = obstacles.iter().position(|o| o.overlaps_triangle(&tb)) {
+    let target_bodies: Vec<[Vec2; 3]> = targets.iter().map(|t| body_triangle(t.pos, t.theta, b.base, b.height)).collect();
+    for (j, tb) in target_bodies.iter().enumerate() {
+        if let Some(k) = obstacles.iter().position(|o| o.overlaps_triangle(tb)) {
             return Err(Error::Layout(format!("target {j} overlaps obstacle {k}")));
+        }
+        if let Some(i) = bodies.iter().position(|wb| triangles_overlap(tb, wb)) {
+            return Err(Error::Layout(format!("target {j} overlaps wolf {i}")));
+        }
+        if let Some(i) = target_bodies[..j].iter().position(|other| triangles_overlap(tb, other)) {
+            return Err(Error::Layout(format!("target {j} overlaps target {i}")));
         }
     }
     Ok((wolves, targets, obstacles))

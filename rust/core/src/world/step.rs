@@ -35,13 +35,59 @@ impl World {
         // 2. Assignment, sensing and the snapshot every controller reads.
         self.sense();
         self.control(wolf_cmds, target_cmds);
+        // A non-finite command would never leave the feasibility filter's halving loop (inf
+        // halves to inf, NaN compares false) and would poison every later number: stop here.
+        if let Some(fault) = self.non_finite_command(wolf_cmds.is_some(), target_cmds.is_some()) {
+            self.fault = Some(fault);
+            return self.outcome;
+        }
         // 3. Moves through the feasibility filter: wolves in index order, then targets.
         self.move_wolves();
         self.move_targets();
         // 4. Outcomes.
         self.t += 1;
         self.judge();
+        if let Some(fault) = self.non_finite_state() {
+            self.fault = Some(fault);
+        }
         self.outcome
+    }
+
+    /// The first agent whose command this step is not finite, as a one-line message naming
+    /// who computed it.
+    fn non_finite_command(&self, wolves_given: bool, targets_given: bool) -> Option<String> {
+        let p = &self.params;
+        let sides = [
+            ("wolf", &self.wolf_cmds, wolves_given, p.policies.wolves.as_str()),
+            ("target", &self.target_cmds, targets_given, p.policies.targets.as_str()),
+        ];
+        for (side, cmds, given, law) in sides {
+            if let Some((i, c)) = cmds.iter().enumerate().find(|(_, c)| !(c.v.is_finite() && c.omega.is_finite())) {
+                let (who, why) = if given {
+                    ("the given commands".to_string(), "")
+                } else {
+                    (format!("the {law}{} law", if side == "target" { " target" } else { "" }), ": its parameters make the arithmetic overflow here; bring them closer to the documented values")
+                };
+                return Some(format!("{who} produced a non-finite command for {side} {i} at step {} (v = {}, omega = {}){why}", self.t, c.v, c.omega));
+            }
+        }
+        None
+    }
+
+    /// Defence in depth after the move: inside the documented ranges every pose and energy
+    /// stays finite, so this names a bug or an unforeseen overflow instead of passing NaN on.
+    fn non_finite_state(&self) -> Option<String> {
+        let bad = |a: &AgentState| !(a.pos.x.is_finite() && a.pos.y.is_finite() && a.theta.is_finite() && a.energy.is_finite());
+        if let Some(i) = self.wolves.iter().position(bad) {
+            return Some(format!("wolf {i}'s state became non-finite at step {} (law {})", self.t, self.params.policies.wolves.as_str()));
+        }
+        if let Some(j) = self.targets.iter().position(bad) {
+            return Some(format!("target {j}'s state became non-finite at step {} (law {})", self.t, self.params.policies.targets.as_str()));
+        }
+        if let Some(k) = self.obstacles.iter().position(|o| !(o.center.x.is_finite() && o.center.y.is_finite() && o.angle.is_finite())) {
+            return Some(format!("obstacle {k}'s pose became non-finite at step {}", self.t));
+        }
+        None
     }
 
     /// Each wolf hunts its nearest uncaptured target (ties: lowest index).
@@ -134,7 +180,13 @@ impl World {
                     }
                 }
             }
-            let pos = w.pos + unit(w.theta) * (v * ts);
+            let mut pos = w.pos + unit(w.theta) * (v * ts);
+            if !inside(pos, &p.world.border) {
+                // Without the filter the walls still hold (nothing leaves the arena, whose walls
+                // every observation and law assume): the move is not made, the wolf only turns.
+                v = 0.0;
+                pos = w.pos;
+            }
             let mass = p.agents.wolf.mass;
             self.wolves[i] = AgentState { pos, theta, v, omega, energy: w.energy + 0.5 * mass * v * v };
             self.bodies[i] = body_triangle(pos, theta, b.base, b.height);
@@ -184,7 +236,11 @@ impl World {
                     v = 0.0; // SPEC: a target that cannot move feasibly only turns.
                 }
             }
-            let pos = t.pos + unit(t.theta) * (v * ts);
+            let mut pos = t.pos + unit(t.theta) * (v * ts);
+            if !inside(pos, &p.world.border) {
+                v = 0.0; // the walls hold without the filter too (see move_wolves)
+                pos = t.pos;
+            }
             let mass = side.mass;
             self.targets[j] = AgentState { pos, theta, v, omega: cmd.omega, energy: t.energy + 0.5 * mass * v * v };
         }
@@ -308,6 +364,12 @@ fn encircled(wolves: &[Vec2], target: Vec2) -> bool {
 }
 
 /// Applies a side's limits: v ∈ [0, v_max] (no reverse), |ω| ≤ ω_max.
+/// Strictly inside the arena.
+fn inside(pos: Vec2, border: &[f64; 4]) -> bool {
+    let [x0, y0, x1, y1] = *border;
+    pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1
+}
+
 fn clamp(c: Command, s: &SideParams) -> Command {
     Command { v: c.v.clamp(0.0, s.v_max), omega: c.omega.clamp(-s.omega_max, s.omega_max) }
 }
@@ -392,6 +454,40 @@ mod tests {
 
     fn at(points: &[(f64, f64)]) -> Vec<AgentState> {
         points.iter().map(|&(x, y)| AgentState::at(x, y, 0.0)).collect()
+    }
+
+    fn small_world() -> World {
+        let l = Layout { wolves: vec![[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]], targets: vec![[5.0, 5.0, 0.0]], obstacles: vec![] };
+        World::from_layout(Arc::new(Params::default()), 0, &l).unwrap()
+    }
+
+    #[test]
+    fn a_nan_command_faults_the_world_instead_of_looping_in_the_filter() {
+        // NaN survives the clamp and compares false with the halving floor: before the check,
+        // this step never returned.
+        let mut w = small_world();
+        let bad = [Command { v: f64::NAN, omega: 0.0 }, Command::default()];
+        w.step_with(Some(&bad), None);
+        let fault = w.fault().expect("faulted");
+        assert!(fault.starts_with("the given commands produced a non-finite command for wolf 0 at step 0"), "{fault}");
+        assert!(w.is_done());
+        let before = w.wolves.clone();
+        w.step_with(None, None);
+        assert_eq!(w.wolves, before, "a faulted world does not move");
+        assert!(matches!(w.check_fault(), Err(crate::Error::NonFinite(_))));
+    }
+
+    #[test]
+    fn a_law_that_yields_nan_is_named() {
+        let mut w = small_world();
+        let bad = [Command { v: 1.0, omega: f64::NAN }];
+        w.step_with(None, Some(&bad));
+        assert!(w.fault().unwrap().starts_with("the given commands produced a non-finite command for target 0"));
+        // A scripted law's fault names the law and the key that selects it.
+        let mut w = small_world();
+        w.target_cmds[0] = Command { v: f64::NAN, omega: 0.0 };
+        let msg = w.non_finite_command(false, false).unwrap();
+        assert!(msg.starts_with("the escape target law produced a non-finite command for target 0"), "{msg}");
     }
 
     #[test]
