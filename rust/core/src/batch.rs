@@ -11,6 +11,7 @@
 //!   in `final_obs_*`, and the finished episode's infos.
 //! - Every step returns fresh output vectors (the binding hands them to numpy without copying).
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use rayon::prelude::*;
@@ -97,6 +98,9 @@ pub fn outcome_code(o: Outcome) -> u8 {
     }
 }
 
+/// Most worlds one batch may hold.
+pub const MAX_ENVS: usize = 1 << 17;
+
 /// Most agents (worlds × (N + M)) one batch may hold: its outputs are sized by them.
 pub const MAX_BATCH_AGENTS: usize = 1 << 24;
 
@@ -152,12 +156,18 @@ pub struct BatchEnv {
 impl BatchEnv {
     /// `num_envs` worlds seeded `seed + i`. `threads`: None = rayon's global pool (all cores).
     pub fn new(params: Params, num_envs: usize, learners: Learners, seed: u64, autoreset: bool, threads: Option<usize>) -> Result<Self> {
+        Self::new_until(params, num_envs, learners, seed, autoreset, threads, &AtomicBool::new(false))
+    }
+
+    /// [`BatchEnv::new`] that gives up with [`Error::Interrupted`] once `stop` is set (checked
+    /// before each world is spawned; building the largest batch takes seconds).
+    pub fn new_until(params: Params, num_envs: usize, learners: Learners, seed: u64, autoreset: bool, threads: Option<usize>, stop: &AtomicBool) -> Result<Self> {
         params.validate()?;
         if num_envs == 0 {
             return Err(Error::Invalid("num_envs must be >= 1".into()));
         }
-        if num_envs > 1 << 20 {
-            return Err(Error::Invalid(format!("num_envs must be <= {}, got {num_envs}", 1 << 20)));
+        if num_envs > MAX_ENVS {
+            return Err(Error::Invalid(format!("num_envs must be <= {MAX_ENVS} (a world of the documented scenario holds about 8 KB, and spawning one takes about 0.1 ms), got {num_envs}")));
         }
         crate::episode::check_threads(threads)?;
         let agents = num_envs * (params.world.wolves + params.world.targets);
@@ -174,7 +184,7 @@ impl BatchEnv {
         };
         let params = Arc::new(params);
         let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, inline: threads == Some(1), track_laws: false };
-        let g = |i: usize| env_slot(&env.params, seed.wrapping_add(i as u64), 0, None);
+        let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
         let worlds: Vec<Result<Slot>> = if env.inline { (0..num_envs).map(g).collect() } else { env.run(|| (0..num_envs).into_par_iter().map(g).collect()) };
         env.slots = worlds.into_iter().collect::<Result<_>>()?;
         Ok(env)
@@ -231,9 +241,19 @@ impl BatchEnv {
     /// Resets every world: with `seed`, world i is re-seeded `seed + i` (episode 0); without,
     /// each world starts its next episode.
     pub fn reset(&mut self, seed: Option<u64>) -> Result<StepOutput> {
+        self.reset_until(seed, &AtomicBool::new(false))
+    }
+
+    /// [`BatchEnv::reset`] that gives up with [`Error::Interrupted`] once `stop` is set; the
+    /// batch is then exactly as before the call (the fresh worlds replace the old ones only
+    /// when all of them are built).
+    pub fn reset_until(&mut self, seed: Option<u64>, stop: &AtomicBool) -> Result<StepOutput> {
         let params = self.params.clone();
         let track = self.track_laws;
         let g = |(i, s): (usize, &Slot)| {
+            if stop.load(Ordering::Relaxed) {
+                return Err(Error::Interrupted);
+            }
             let (sd, ep) = match seed {
                 Some(b) => (b.wrapping_add(i as u64), 0),
                 None => (s.seed, s.episode + 1),

@@ -354,13 +354,14 @@ struct PyBatchEnv {
 impl PyBatchEnv {
     #[new]
     #[pyo3(signature = (params=None, num_envs=1, learners="wolves", seed=0, autoreset=true, threads=None))]
-    fn new(params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>) -> PyResult<Self> {
+    fn new(py: Python<'_>, params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>) -> PyResult<Self> {
         let p = match params {
             Some(obj) => params_from(obj)?,
             None => Params::default(),
         };
         let l = Learners::parse(learners).map_err(value_error)?;
-        let inner = guarded(|| BatchEnv::new(p, num_envs, l, seed, autoreset, threads))?.map_err(value_error)?;
+        let stop = AtomicBool::new(false);
+        let inner = interruptible(py, &stop, || guarded(|| BatchEnv::new_until(p, num_envs, l, seed, autoreset, threads, &stop))?.map_err(value_error))?;
         Ok(Self { inner })
     }
 
@@ -395,7 +396,8 @@ impl PyBatchEnv {
     #[pyo3(signature = (seed=None))]
     fn reset<'py>(&mut self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyDict>> {
         let env = &mut self.inner;
-        let out = py.detach(|| guarded(|| env.reset(seed)))?.map_err(value_error)?;
+        let stop = AtomicBool::new(false);
+        let out = interruptible(py, &stop, || guarded(|| env.reset_until(seed, &stop))?.map_err(value_error))?;
         step_output_to_py(py, &self.inner, out)
     }
 
