@@ -26,7 +26,7 @@ BAD_ARGS = [
     (["--set", "obstacles.circle_radius=[0,1]"], "obstacles.circle_radius"),  # radii
     (["--set", "capture.distance=-0.8"], "capture.distance"),
     (["--set", "agents.wolf.v_max=0"], "agents.wolf.v_max"),  # speeds
-    (["--set", "world.ts=0"], "world.ts: must be a finite number > 0, got 0"),
+    (["--set", "world.ts=0"], "world.ts: must be in (0, 1] s, got 0"),
     (["--set", "world.max_steps=0"], "world.max_steps"),
     (["--set", "world.border=[5,-10,5,10]"], "world.border"),  # x_min ≥ x_max
     (["--set", "capture.count=6"], "capture.count"),  # more than the wolves
@@ -280,9 +280,10 @@ def test_table_output_without_json(cli, tmp_path):
         assert word in proc.stdout, word
 
 
-def test_a_failed_rerun_leaves_no_summary_behind(cli, tmp_path):
+def test_a_failed_rerun_leaves_the_earlier_run_intact(cli, tmp_path):
     out = tmp_path / "out"
     assert cli("hunt", "--episodes", "1", "--plots", "0", "--out", out, *SHORT).returncode == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert (out / "summary.json").exists()
     # Invalid parameters: caught before DIR is touched, the earlier run's files stay as they were.
     assert_clean_failure(cli("hunt", "--out", out, "--set", "world.ts=0"), "world.ts")
@@ -290,10 +291,11 @@ def test_a_failed_rerun_leaves_no_summary_behind(cli, tmp_path):
     # A used folder is refused without --force, and nothing in it is touched.
     assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, *SHORT), "--force")
     assert (out / "summary.json").exists()
-    # --force with valid parameters whose spawn fails while running: the earlier run's files
-    # are gone first, so its summary cannot pass for this run's.
+    # --force with valid parameters whose spawn fails while running: the new run was written
+    # beside DIR, so the failure costs the earlier run nothing, and leaves no temporary folder.
     assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, "--force", "--set", "obstacles.static_polygons=500"), "spawn")
-    assert not (out / "summary.json").exists()
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     rerun = cli("hunt", "--episodes", "2", "--plots", "0", "--seed", "9", "--out", out, "--force", *SHORT)
     assert rerun.returncode == 0
     assert json.loads((out / "summary.json").read_text())["seed"] == 9

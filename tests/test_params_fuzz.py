@@ -216,3 +216,10 @@ def test_the_docs_list_every_documented_range():
 
 if __name__ == "__main__":  # python tests/test_params_fuzz.py prints the table for the docs
     print(ranges_table())
+
+
+def test_a_formation_clearance_wider_than_half_the_arena_simulates():
+    """Found by the fuzz above: the slot clamp's range was empty (min > max) and the core
+    panicked; the margin is now capped at half the arena."""
+    params = wolfpack.load_params(overrides={"policies.wolves": "formation", "formation.clearance": 11.0, "world.max_steps": 25})
+    simulate(params, 0, "targets")

@@ -14,7 +14,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from wolfpack import _core
-from wolfpack.config import apply_overrides, load_params
+from wolfpack._checks import check_flag, check_index, check_int, check_seed, check_threads
+from wolfpack.config import apply_overrides, check_tree, load_params
 
 LEARNERS = ("wolves", "targets", "all", "none")
 
@@ -65,12 +66,14 @@ def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Map
     applied, validated. Override keys are dotted (``"world.wolves"``) or use ``__`` in place of
     the dots (``world__wolves=8`` as a keyword argument); ``max_cycles`` is PettingZoo's name
     for ``world.max_steps``. An unknown key or a bad value is a ValueError naming the key (the
-    env constructors check their keywords first: :func:`check_override_keywords`)."""
+    env constructors check their keywords first: :func:`check_override_keywords`). A params
+    dict or override nested too deeply or too large is a ValueError too
+    (:func:`wolfpack.config.check_tree`); ``params`` of another type is a TypeError."""
     dotted = dotted_keys(overrides)
     if params is None or isinstance(params, (str, Path)):
         return load_params(params, dotted)
     if not isinstance(params, Mapping):
-        raise ValueError(f"params must be None, a path or a dict, got {type(params).__name__}")
+        raise TypeError(f"params must be None, a path or a dict, got {type(params).__name__}")
     return _core.validate_params(apply_overrides(dict(params), dotted))
 
 
@@ -107,11 +110,10 @@ class SharedObservation:
 
 
 def check_shared_space(shared_space: Any, learners: str) -> bool:
-    if not isinstance(shared_space, (bool, np.bool_)):
-        raise ValueError(f"shared_space must be True or False, got {shared_space!r}")
+    shared_space = check_flag(shared_space, "shared_space")
     if shared_space and learners != "all":
         raise ValueError(f"shared_space=True needs learners='all' (one policy for both sides), got learners={learners!r}")
-    return bool(shared_space)
+    return shared_space
 
 
 def check_learners(learners: str) -> str:
@@ -191,11 +193,15 @@ class BatchEnv:
         num_envs: number of worlds E; world i is seeded ``seed + i``.
         learners: ``"wolves"``, ``"targets"``, ``"all"`` or ``"none"``; the other side follows
             its scripted law (``policies.*`` in params).
-        seed: base seed.
+        seed: base seed, an integer with ``seed + num_envs - 1 < 2**64``.
         autoreset: reset a finished world within the same step (SB3's convention), keeping
             its last observation in ``final_obs_*``.
-        threads: worker threads (None: all cores). Results never depend on it.
+        threads: worker threads (None: all cores; at most 256). Results never depend on it.
         **overrides: params overrides, ``world__wolves=8`` or ``**{"world.wolves": 8}``.
+
+    A wrong type (a str seed, a float ``num_envs``, a bool where a number is meant) is a
+    TypeError; a bad value (a seed out of range, ``num_envs < 1``, ``threads=0``, a flag that is
+    not True or False, a bad params key) is a ValueError naming it.
 
     :meth:`reset` and :meth:`step` return a dict of fresh arrays: ``obs_wolves`` [E, N, Dw]
     (when wolves learn), ``obs_targets`` [E, M, Dt] (when targets learn), ``rewards_wolves``
@@ -222,14 +228,12 @@ class BatchEnv:
     ) -> None:
         self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, **overrides)
         self.learners = check_learners(learners)
-        if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
-            raise ValueError(f"threads must be None or an integer >= 1, got {threads!r}")
-        if not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        num_envs = check_int(num_envs, "num_envs", 1)
+        threads = check_threads(threads)
+        seed = check_seed(seed, span=num_envs)
+        autoreset = check_flag(autoreset, "autoreset")
         check_override_keywords(overrides)
-        self._core = _core.BatchEnv(resolve_params(params, overrides), int(num_envs), learners, int(seed), bool(autoreset), threads)
+        self._core = _core.BatchEnv(resolve_params(params, overrides), num_envs, learners, seed, autoreset, threads)
         self.params: dict = self._core.params
         self.num_envs: int = self._core.num_envs
         self.n_wolves: int = self._core.n_wolves
@@ -252,8 +256,9 @@ class BatchEnv:
         return self.learners in ("targets", "all")
 
     def reset(self, seed: int | None = None) -> dict[str, np.ndarray]:
-        """Resets every world; with ``seed``, world i is re-seeded ``seed + i``."""
-        return self._core.reset(seed)
+        """Resets every world; with ``seed``, world i is re-seeded ``seed + i`` (so ``seed +
+        num_envs - 1`` must be < 2**64)."""
+        return self._core.reset(check_seed(seed, span=self.num_envs, optional=True))
 
     def state(self) -> np.ndarray:
         """Every world's global state for centralised critics, float32 [E, state_dim], every
@@ -266,6 +271,10 @@ class BatchEnv:
 
     def reset_world(self, index: int, seed: int | None = None, layout: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
         """Resets world ``index`` alone (seeded ``seed`` itself), optionally from a LAYOUT."""
+        index = check_index(index, self.num_envs)
+        seed = check_seed(seed, optional=True)
+        if layout is not None:
+            check_tree(layout, "layout")
         return self._core.reset_world(index, seed, layout)
 
     def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, np.ndarray]:
@@ -285,7 +294,7 @@ class BatchEnv:
 
     def world_state(self, index: int = 0) -> dict[str, Any]:
         """World ``index``'s full state (see ``WolfpackParallelEnv.world_state``)."""
-        return self._core.world_state(index)
+        return self._core.world_state(check_index(index, self.num_envs))
 
 
 def rebuild(cls, kwargs):

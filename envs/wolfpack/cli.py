@@ -14,7 +14,8 @@ status cause
 130    interrupted (Ctrl-C)
 ====== ==========================================================================================
 
-Nothing is printed on stdout and no ``summary.json`` exists unless the run completed.
+Nothing is printed on stdout and no ``summary.json`` exists unless the run completed; an
+interrupted ``hunt --out DIR`` leaves the marker ``DIR/INCOMPLETE`` (see ``wolfpack hunt --help``).
 """
 
 from __future__ import annotations
@@ -22,13 +23,20 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
+import shutil
+import signal
 import sys
+import tempfile
+import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from wolfpack import _core, config, logs
-from wolfpack.episodes import run_episodes, summarize
+from wolfpack._checks import MAX_THREADS
+from wolfpack.episodes import RunningSummary, run_episodes
 
 PROG = "wolfpack"
 EXIT_INPUT, EXIT_INTERNAL, EXIT_IO, EXIT_INTERRUPTED = 2, 3, 1, 130
@@ -67,7 +75,12 @@ Output on stdout: a short table, or with --json one JSON object with the keys
   episode), env_steps_per_second (simulated steps / wall time spent simulating), total_steps.
 
 With --out DIR (created after the input has been checked; a new or empty folder, or --force to
-replace an earlier run's files there; a run stopped early leaves no summary.json):
+replace an earlier run's files there). Into a new or empty DIR the run writes a marker file
+DIR/INCOMPLETE first and removes it once summary.json is written: Ctrl-C leaves the episodes
+finished so far, the marker and no summary.json; another failure removes what the run wrote.
+With --force the run is written beside DIR and replaces the earlier run's files only once it
+has finished: a run that fails or is interrupted leaves the earlier run as it was. Every file
+is written under a temporary name and renamed, so every file present is complete.
   DIR/summary.json                    the --json summary plus params (resolved), seed, command,
                                       and episodes_detail (per episode: seed, outcome, steps,
                                       capture_step, cornered_step, energy and collisions per
@@ -130,7 +143,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"{PROG}: error: {self.prog.removeprefix(PROG).strip() or 'usage'}: {message} (see --help)\n")
 
 
-def _int_at_least(lo: int) -> Callable[[str], int]:
+def _int_at_least(lo: int, hi: int | None = None) -> Callable[[str], int]:
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -138,9 +151,18 @@ def _int_at_least(lo: int) -> Callable[[str], int]:
             raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
         if value < lo:
             raise argparse.ArgumentTypeError(f"must be >= {lo}, got {value}")
+        if hi is not None and value > hi:
+            raise argparse.ArgumentTypeError(f"must be <= {hi}, got {value}")
         return value
 
     return parse
+
+
+def _folder(text: str) -> str:
+    """A path argument that must name something: ``--out ''`` is an error, not "no --out"."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; name a folder")
+    return text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -165,23 +187,25 @@ def build_parser() -> argparse.ArgumentParser:
                            "--set world.border=[-5,-5,5,5]; repeatable")
     hunt.add_argument("--layout", metavar="FILE", help="start every episode from this explicit state (JSON, schema below); "
                                                        "agent counts come from the layout")
-    hunt.add_argument("--out", metavar="DIR", help="write summary.json, per-episode trajectory.npz and plots under DIR "
+    hunt.add_argument("--out", metavar="DIR", type=_folder, help="write summary.json, per-episode trajectory.npz and plots under DIR "
                                                    "(a new or empty folder, unless --force)")
-    hunt.add_argument("--force", action="store_true", help="with --out DIR holding an earlier run: delete that run's files "
-                                                           "(summary.json, summary.png, episode_*/) first; other files are kept")
+    hunt.add_argument("--force", action="store_true", help="with --out DIR holding an earlier run: replace that run's files "
+                                                           "(summary.json, summary.png, episode_*/) once this run has finished; "
+                                                           "other files are kept, and a run that fails or is interrupted leaves the earlier one as it was")
     hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
                       help="with --out, draw trajectory.png, curves.png and interaction.png (and with --video episode.mp4) for the first N episodes only (default: 20; "
                            "0: none); summary.png and every trajectory.npz are always written")
     hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) "
                                                            "for the episodes that get plots (--plots)")
     hunt.add_argument("--json", action="store_true", help="print one JSON object (the summary) on stdout instead of a table")
-    hunt.add_argument("--threads", metavar="T", type=_int_at_least(1), default=None, help="worker threads (default: all cores); results do not depend on it")
+    hunt.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None,
+                      help=f"worker threads, 1 to {MAX_THREADS} (default: all cores); results do not depend on it")
     hunt.set_defaults(func=cmd_hunt)
 
     replay = sub.add_parser("replay", help="re-render a saved episode (trajectory.npz) to video and plots without re-simulating",
                             description=REPLAY_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    replay.add_argument("episode", metavar="EPISODE_DIR", help="an episode folder of 'wolfpack hunt --out' (holding trajectory.npz), or the .npz itself")
-    replay.add_argument("--out", metavar="DIR", help="where to write episode.mp4, trajectory.png, curves.png and interaction.png (default: EPISODE_DIR)")
+    replay.add_argument("episode", metavar="EPISODE_DIR", type=_folder, help="an episode folder of 'wolfpack hunt --out' (holding trajectory.npz), or the .npz itself")
+    replay.add_argument("--out", metavar="DIR", type=_folder, help="where to write episode.mp4, trajectory.png, curves.png and interaction.png (default: EPISODE_DIR)")
     replay.add_argument("--no-video", action="store_true", help="no episode.mp4")
     replay.add_argument("--no-plots", action="store_true", help="no trajectory.png, curves.png, interaction.png")
     replay.add_argument("--frames", metavar="T", type=_int_at_least(0), nargs="+", default=[],
@@ -193,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="throughput of scripted stepping (env-steps/s)",
                            description=BENCH_DESCRIPTION, epilog=BENCH_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     bench.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=64, help="episodes per measurement (default: 64)")
-    bench.add_argument("--threads", metavar="T", type=_int_at_least(1), default=None, help="the parallel measurement's thread count (default: all cores)")
+    bench.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help=f"the parallel measurement's thread count, 1 to {MAX_THREADS} (default: all cores)")
     bench.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="first episode seed (default: 0)")
     bench.add_argument("--num-envs", metavar="E", type=_int_at_least(1), default=64, help="worlds in the native batch measurement (default: 64)")
     bench.add_argument("--batch-steps", metavar="T", type=_int_at_least(1), default=300, help="steps of the native batch per measurement (default: 300)")
@@ -234,12 +258,92 @@ def resolve_scenario(args: argparse.Namespace) -> tuple[dict, dict, dict | None]
 # --- hunt ---------------------------------------------------------------------------------
 
 
+class _CtrlC:
+    """Ctrl-C for the command line (installed by :func:`main` for the command's duration).
+
+    Python raises KeyboardInterrupt wherever the main thread happens to be, and where that is a
+    finalizer or a weakref callback (matplotlib runs many, during garbage collection) the
+    exception is printed as "Exception ignored in ..." and lost, and the run goes on. So the
+    handler also records the interrupt, a lost KeyboardInterrupt is recorded silently
+    (``sys.unraisablehook``), and :meth:`check` raises it again at the next safe point (after
+    each episode, each file, each frame). The core's signal check calls the handler too, which
+    is what stops a long native call."""
+
+    pending = False
+
+    @classmethod
+    def handler(cls, signum: int, frame: Any) -> None:
+        cls.pending = True
+        raise KeyboardInterrupt
+
+    @classmethod
+    def check(cls) -> None:
+        if cls.pending:
+            raise KeyboardInterrupt
+
+    @classmethod
+    def checked(cls, items):
+        """``items``, checking for a pending Ctrl-C before each."""
+        for item in items:
+            cls.check()
+            yield item
+
+
+@contextmanager
+def _ctrl_c_handled() -> Iterator[None]:
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        yield  # not ours to handle (a thread), or Ctrl-C is ignored on purpose (nohup, cmd &)
+        return
+    _CtrlC.pending = False
+    previous = signal.signal(signal.SIGINT, _CtrlC.handler)
+    previous_hook = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            _CtrlC.pending = True
+        else:
+            previous_hook(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous_hook
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.default_int_handler)
+
+
+@contextmanager
+def _sigint_held(drop: bool = False) -> Iterator[None]:
+    """Holds Ctrl-C back for the block (a few renames or deletions that must not stop half
+    way); a Ctrl-C that arrived meanwhile is raised when it ends, or with ``drop`` forgotten
+    (the cleanup after a first Ctrl-C). Only the main thread can handle signals; elsewhere the
+    block runs as it is."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.default_int_handler)
+    if caught and not drop:
+        raise KeyboardInterrupt
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during ``hunt --out``, with what it left in DIR (for the one-line message)."""
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(detail)
+        self.detail = detail
+
+
 class RunWriter:
-    """Writes ``--out DIR`` as episodes arrive (so a long run never holds every trajectory in
-    memory). Create it once the input is valid: it removes an earlier run's ``DIR/summary.json``
-    at once, so that the summary cannot outlive a failure of this run (an infeasible spawn is
-    only found while running). DIR itself is created at the first episode, after the first batch
-    was simulated; ``summary.json`` is written last, by :meth:`finish`."""
+    """Writes a run's files into ``out`` as episodes arrive (so a long run never holds every
+    trajectory in memory); ``out`` is the folder :class:`RunDir` chose. ``out`` is created at the
+    first episode, and ``summary.json`` is written last, by :meth:`finish`. Every file is written
+    under a temporary name and renamed: a file under its final name is complete."""
 
     def __init__(self, out: Path, resolved: dict, plots: int, video: bool = False):
         # Imported here: matplotlib is slow to import and only needed with --out.
@@ -247,37 +351,136 @@ class RunWriter:
 
         self.plotting = plotting
         self.out, self.resolved, self.plots, self.video = out, resolved, plots, video
+        self.count = 0  # episodes written
         (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
 
     def episode(self, k: int, result: dict) -> None:
-        """Writes ``episode_{k:03d}/trajectory.npz`` and, for k < plots, its two plots."""
+        """Writes ``episode_{k:03d}/trajectory.npz`` and, for k < plots, its plots (and video).
+        The episode counts as written (:attr:`count`) once its trajectory.npz is; a folder left
+        without one by an error or Ctrl-C is removed."""
         self.out.mkdir(parents=True, exist_ok=True)
         folder = logs.episode_dir(self.out, k)
         folder.mkdir(exist_ok=True)
-        arrays = logs.trajectory_arrays(result, self.resolved)
-        logs.write_trajectory(folder / "trajectory.npz", arrays)
+        try:
+            logs.write_trajectory(folder / "trajectory.npz", arrays := logs.trajectory_arrays(result, self.resolved))
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        self.count += 1
         if k < self.plots:
-            self.plotting.plot_trajectory(arrays, folder / "trajectory.png", label=f"episode {k}")
-            self.plotting.plot_curves(arrays, folder / "curves.png", label=f"episode {k}")
-            self.plotting.plot_interaction(arrays, folder / "interaction.png", label=f"episode {k}")
+            for name, plot in (("trajectory.png", self.plotting.plot_trajectory), ("curves.png", self.plotting.plot_curves),
+                               ("interaction.png", self.plotting.plot_interaction)):
+                _CtrlC.check()
+                with logs.atomic_path(folder / name, keep_suffix=True) as tmp:
+                    plot(arrays, tmp, label=f"episode {k}")
             if self.video:
                 from wolfpack import render
 
-                render.write_video(render.trajectory_frames(arrays, self.resolved), folder / "episode.mp4")
+                with logs.atomic_path(folder / "episode.mp4", keep_suffix=True) as tmp:
+                    render.write_video(_CtrlC.checked(render.trajectory_frames(arrays, self.resolved)), tmp)
+        _CtrlC.check()
+
+    def plot_summary(self, summary: dict) -> None:
+        with logs.atomic_path(self.out / "summary.png", keep_suffix=True) as tmp:
+            self.plotting.plot_summary(summary["episodes_detail"], tmp)
+
+    def write_summary(self, summary: dict) -> None:
+        logs.write_json_atomic(self.out / logs.SUMMARY_NAME, summary)
 
     def finish(self, summary: dict) -> None:
-        self.plotting.plot_summary(summary["episodes_detail"], self.out / "summary.png")
-        logs.write_json_atomic(self.out / logs.SUMMARY_NAME, summary)
+        self.plot_summary(summary)
+        self.write_summary(summary)
+
+
+class RunDir:
+    """Where ``hunt --out DIR`` writes, so that a run that does not finish never passes for one
+    that did, and never costs an earlier run its files.
+
+    - DIR new or empty: the run writes into DIR, starting with the marker file ``INCOMPLETE``
+      (:data:`logs.INCOMPLETE_NAME`), removed only once ``summary.json`` is written. Ctrl-C
+      leaves the episodes finished so far (every file complete), the marker, and no
+      summary.json; any other failure removes what the run wrote.
+    - DIR holding files (``--force``): the run writes into a temporary sibling folder, and only
+      once it has finished are the earlier run's files (:func:`clear_run`) replaced by the new
+      ones; a failure or Ctrl-C removes the temporary folder and leaves DIR as it was.
+    """
+
+    def __init__(self, out: Path, force: bool, command: Sequence[str]):
+        if out.exists() and not out.is_dir():
+            raise ValueError(f"--out {out}: exists and is not a directory")
+        self.out, self.command = out, list(command)
+        self.replacing = out.is_dir() and any(out.iterdir())
+        if self.replacing and not force:
+            raise ValueError(f"--out {out}: not empty (an earlier run?); choose a new folder, or add --force to replace the earlier run's files")
+        self.made: list[Path] = []  # folders this run created, deepest first
+        parent = out
+        while not parent.exists():
+            self.made.append(parent)
+            parent = parent.parent
+        self.committed = False
+        self.started = time.strftime("%Y-%m-%d %H:%M:%S %z")
+        if self.replacing:
+            base = out.resolve()  # a sibling of DIR itself, also for --out . or --out run/
+            self.work = Path(tempfile.mkdtemp(prefix=f".{base.name}.wolfpack-new-", dir=base.parent))
+        else:
+            out.mkdir(parents=True, exist_ok=True)
+            self.work = out
+        self._mark("it is still running, or it stopped before the end (interrupted or failed)")
+
+    def _mark(self, state: str) -> None:
+        text = (f"This wolfpack hunt run is INCOMPLETE: {state}.\n"
+                f"command: {shlex.join(self.command)}\n"
+                f"started: {self.started}\n"
+                "summary.json is written, and this file removed, only when every episode has finished. "
+                "Every trajectory.npz here is complete and readable.\n")
+        with logs.atomic_path(self.work / logs.INCOMPLETE_NAME) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+
+    def commit(self) -> None:
+        """The run has written its summary.json into :attr:`work`: make it DIR's run."""
+        if self.replacing:
+            clear_run(self.out)
+            names = sorted((p.name for p in self.work.iterdir() if p.name != logs.INCOMPLETE_NAME), key=lambda n: n == logs.SUMMARY_NAME)
+            for name in names:  # summary.json last
+                os.replace(self.work / name, self.out / name)
+            shutil.rmtree(self.work)
+        else:
+            (self.out / logs.INCOMPLETE_NAME).unlink()
+        self.committed = True
+
+    def discard(self) -> None:
+        """The run failed: remove what it wrote (an earlier run in DIR is untouched)."""
+        if self.committed:
+            return
+        if self.replacing:
+            shutil.rmtree(self.work, ignore_errors=True)
+            return
+        clear_run(self.out)
+        for folder in self.made:
+            try:
+                folder.rmdir()
+            except OSError:
+                break  # someone put a file there meanwhile: leave it
+
+    def interrupted(self, done: int, total: int) -> str:
+        """Ctrl-C: leave DIR as :class:`RunDir` promises; returns what to tell the user."""
+        if self.committed:
+            return f"; the run had finished: {self.out} holds its complete results"
+        if self.replacing:
+            shutil.rmtree(self.work, ignore_errors=True)
+            return f"; the earlier run in {self.out} is intact (this run's files were removed)"
+        self._mark(f"it was interrupted (Ctrl-C) after {done} of {total} episodes")
+        return f"; {self.out} is incomplete: {done} of {total} episodes written, marker {logs.INCOMPLETE_NAME}, no summary.json"
 
 
 def clear_run(out: Path) -> None:
-    """``--force``: deletes what ``wolfpack hunt --out`` writes (summary.json and its temporary,
-    summary.png, episode_NNN/ folders), so that no episode of an earlier run sits beside this
-    run's; anything else in ``out`` is left alone."""
+    """Deletes what ``wolfpack hunt --out`` writes (summary.json and its temporary,
+    summary.png, the INCOMPLETE marker, episode_NNN/ folders), so that no episode of an earlier
+    run sits beside a new run's; anything else in ``out`` is left alone. summary.json goes
+    first, so that a run is never left looking complete with files missing."""
     import re
-    import shutil
 
-    for name in (logs.SUMMARY_NAME, f".{logs.SUMMARY_NAME}.tmp", "summary.png"):
+    for name in (logs.SUMMARY_NAME, f".{logs.SUMMARY_NAME}.tmp", "summary.png", ".summary.tmp.png", logs.INCOMPLETE_NAME, f".{logs.INCOMPLETE_NAME}.tmp"):
         (out / name).unlink(missing_ok=True)
     for child in out.iterdir():
         if child.is_dir() and re.fullmatch(r"episode_\d{3,}", child.name):
@@ -293,22 +496,24 @@ def _cores() -> int:
 
 
 def _chunk_size(episodes: int, threads: int | None, streaming: bool) -> int:
-    """Episodes per native call: all at once unless results are shown or written as they come;
-    then a few per thread, which keeps every core busy and memory bounded."""
-    if not streaming:
-        return episodes
-    return max(1, min(episodes, 8 * (threads or _cores())))
+    """Episodes per native call: a few per thread when results are shown or written as they
+    come (every core busy, memory bounded), else a few hundred per thread — always bounded, so
+    that memory stays flat over any number of episodes."""
+    per_thread = 8 if streaming else 256
+    return max(1, min(episodes, per_thread * (threads or _cores())))
 
 
-def simulate(args, params, layout, on_result: Callable[[int, dict], None]) -> tuple[list[dict], float]:
-    """Runs the episodes in chunks; calls ``on_result(k, result)`` for each, in order. Returns
-    the results (without trajectories) and the wall time spent inside the simulator."""
+def simulate(args, params, layout, on_result: Callable[[int, dict], None], details: list | None = None) -> tuple[RunningSummary, float]:
+    """Runs the episodes in chunks; calls ``on_result(k, result)`` for each, in order, and
+    appends each episode's :func:`logs.episode_detail` to ``details`` when given. Returns the
+    running summary and the wall time spent inside the simulator. Nothing else is kept per
+    episode, so memory does not grow with the episode count (bar ``details``)."""
     from tqdm import tqdm
 
     record = args.out is not None
     show = sys.stderr.isatty()
     chunk = _chunk_size(args.episodes, args.threads, record or show)
-    results: list[dict] = []
+    tally = RunningSummary()
     seconds = 0.0
     with tqdm(total=args.episodes, unit="ep", file=sys.stderr, disable=not show, leave=False) as bar:
         for first in range(0, args.episodes, chunk):
@@ -319,11 +524,15 @@ def simulate(args, params, layout, on_result: Callable[[int, dict], None]) -> tu
             batch = run_episodes(params, count, args.seed + first, layout=layout, record=record, threads=args.threads)
             seconds += time.perf_counter() - t0
             for i, result in enumerate(batch):
+                _CtrlC.check()
                 on_result(first + i, result)
-                result.pop("trajectory", None)
-                results.append(result)
+                tally.add(result)
+                if details is not None:
+                    details.append(logs.episode_detail(result))
+            del batch
             bar.update(count)
-    return results, seconds
+            _CtrlC.check()
+    return tally, seconds
 
 
 def _table(summary: dict, args, resolved: dict) -> str:
@@ -358,21 +567,38 @@ def _check_seed_range(seed: int, episodes: int) -> None:
 def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
     _check_seed_range(args.seed, args.episodes)
     params, resolved, layout = resolve_scenario(args)
-    out = Path(args.out) if args.out else None
+    out = Path(args.out) if args.out is not None else None
     if args.video and out is None:
         raise ValueError("--video needs --out DIR (the videos are written there, one per episode)")
-    if out is not None and out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out}: exists and is not a directory")
-    if out is not None and out.is_dir() and any(out.iterdir()):
-        if not args.force:
-            raise ValueError(f"--out {out}: not empty (an earlier run?); choose a new folder, or add --force to replace the earlier run's files")
-        clear_run(out)
-    writer = RunWriter(out, resolved, args.plots, args.video) if out is not None else None
-    results, seconds = simulate(args, params, layout, writer.episode if writer else lambda k, r: None)
-    summary = summarize(results, seconds)
-    if writer is not None:
-        writer.finish({**summary, "params": resolved, "seed": args.seed, "layout": layout,
-                       "command": [PROG, *argv], "episodes_detail": [logs.episode_detail(r) for r in results]})
+    if out is None:
+        tally, seconds = simulate(args, params, layout, lambda k, r: None)
+        _report(tally.summary(seconds), args, resolved)
+        return
+    run = RunDir(out, args.force, [PROG, *argv])
+    writer: RunWriter | None = None
+    try:
+        writer = RunWriter(run.work, resolved, args.plots, args.video)
+        details: list[dict] = []
+        tally, seconds = simulate(args, params, layout, writer.episode, details)
+        summary = tally.summary(seconds)
+        full = {**summary, "params": resolved, "seed": args.seed, "layout": layout,
+                "command": [PROG, *argv], "episodes_detail": details}
+        writer.plot_summary(full)
+        with _sigint_held():  # summary.json and the swap into DIR: all or nothing
+            writer.write_summary(full)
+            run.commit()
+        _report(summary, args, resolved)
+    except KeyboardInterrupt:
+        with _sigint_held(drop=True):
+            detail = run.interrupted(writer.count if writer else 0, args.episodes)
+        raise Interrupted(detail) from None
+    except BaseException:
+        with _sigint_held(drop=True):
+            run.discard()
+        raise
+
+
+def _report(summary: dict, args, resolved: dict) -> None:
     if args.json:
         print(json.dumps(summary))
     else:
@@ -386,7 +612,9 @@ Re-render a saved episode without re-simulating it: episode.mp4 (one frame per r
 10 fps = real time), trajectory.png, curves.png and interaction.png, from the trajectory.npz that
 'wolfpack hunt --out DIR' wrote into DIR/episode_{k:03d}/. The frames are exactly those of
 render_mode="rgb_array" during the live run. Body size and sensing radius come from the run's
-DIR/summary.json when it is there, else from the documented scenario.
+DIR/summary.json when it is there, else from the documented scenario. The arrays are checked
+first (keys, numeric dtypes, shapes consistent with each other, finite poses and energies): a
+file that fails exits with status 2 and one line naming the array.
 
 examples:
   wolfpack hunt --episodes 3 --out runs/demo
@@ -407,14 +635,10 @@ def load_episode(where: Path) -> tuple[dict, dict, Path]:
         arrays = logs.load_trajectory(npz)
     except Exception as e:  # zip/npy errors of every kind: the file is not a trajectory
         raise ValueError(f"{npz}: not a readable trajectory.npz ({type(e).__name__}: {_one_line(e)})") from None
-    needed = ("wolves", "targets", "energy", "interaction", "outcome", "obstacle_poses", "obstacle_kind", "obstacle_radius", "obstacle_vertices", "border", "capture_distance")
-    missing = [k for k in needed if k not in arrays]
-    if missing:
-        raise ValueError(f"{npz}: not a wolfpack trajectory (missing {', '.join(missing)})")
-    rows = len(arrays["wolves"])
-    if rows < 1 or arrays["targets"].shape[0] != rows or arrays["obstacle_poses"].shape[0] != rows or arrays["interaction"].shape[0] != rows - 1:
-        raise ValueError(f"{npz}: inconsistent trajectory arrays (wolves {arrays['wolves'].shape}, targets {arrays['targets'].shape}, "
-                         f"obstacle_poses {arrays['obstacle_poses'].shape}, interaction {arrays['interaction'].shape})")
+    try:
+        logs.check_trajectory(arrays)
+    except ValueError as e:
+        raise ValueError(f"{npz}: {e}") from None
     folder = npz.parent
     params = _core.validate_params(None, resolve=True)
     summary = folder.parent / logs.SUMMARY_NAME
@@ -435,23 +659,27 @@ def cmd_replay(args: argparse.Namespace, argv: Sequence[str]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     label = f"{folder.name} (replay)"
     written = []
+    # Every file under a temporary name first (logs.atomic_path): Ctrl-C leaves no partial one.
     if not args.no_plots:
-        plotting.plot_trajectory(arrays, out / "trajectory.png", label=label)
-        plotting.plot_curves(arrays, out / "curves.png", label=label)
-        plotting.plot_interaction(arrays, out / "interaction.png", label=label)
-        written += ["trajectory.png", "curves.png", "interaction.png"]
+        for name, plot in (("trajectory.png", plotting.plot_trajectory), ("curves.png", plotting.plot_curves), ("interaction.png", plotting.plot_interaction)):
+            _CtrlC.check()
+            with logs.atomic_path(out / name, keep_suffix=True) as tmp:
+                plot(arrays, tmp, label=label)
+            written.append(name)
     options = render.FrameOptions(width=args.size, height=args.size, trail=args.trail)
     if not args.no_video:
-        frames = render.write_video(render.trajectory_frames(arrays, params, options), out / "episode.mp4")
+        with logs.atomic_path(out / "episode.mp4", keep_suffix=True) as tmp:
+            frames = render.write_video(_CtrlC.checked(render.trajectory_frames(arrays, params, options)), tmp)
         written.insert(0, f"episode.mp4 ({frames} frames)")
     if args.frames:
         import imageio.v3 as iio
 
         last = len(arrays["wolves"]) - 1
         wanted = {min(t, last) for t in args.frames}
-        for t, frame in enumerate(render.trajectory_frames(arrays, params, options)):
+        for t, frame in enumerate(_CtrlC.checked(render.trajectory_frames(arrays, params, options))):
             if t in wanted:
-                iio.imwrite(out / f"frame_{t:03d}.png", frame)
+                with logs.atomic_path(out / f"frame_{t:03d}.png", keep_suffix=True) as tmp:
+                    iio.imwrite(tmp, frame)
                 written.append(f"frame_{t:03d}.png")
     print(f"wrote {', '.join(written) or 'nothing'} to {out}")
 
@@ -495,7 +723,7 @@ def _bench_batch(num_envs: int, steps: int, threads: int, seed: int) -> dict:
     plan = np.random.default_rng(seed).uniform(-1, 1, (steps, num_envs, env.n_wolves, 2)).astype(np.float32)
     env.reset(seed)
     t0 = time.perf_counter()
-    for actions in plan:
+    for actions in _CtrlC.checked(plan):
         env.step(actions)
     seconds = time.perf_counter() - t0
     return {"threads": threads, "num_envs": num_envs, "steps": steps, "env_steps": steps * num_envs, "seconds": seconds,
@@ -510,11 +738,14 @@ def _one_line(err: BaseException) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """Entry point of the ``wolfpack`` script; exits with 0 on success."""
+    """Entry point of the ``wolfpack`` script; exits with 0 on success. Every failure, Ctrl-C
+    included, is one line on stderr and a status (module docstring)."""
+    entry = argv is None  # the process's own command line: it ends here
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(argv)
     try:
-        args.func(args, argv)
+        with _ctrl_c_handled():
+            args = build_parser().parse_args(argv)
+            args.func(args, argv)
     except ValueError as e:
         sys.exit(_fail(EXIT_INPUT, f"error: {_one_line(e)}"))
     except RuntimeError as e:
@@ -523,10 +754,20 @@ def main(argv: Sequence[str] | None = None) -> None:
     except OSError as e:
         where = f" {e.filename}" if e.filename else ""
         sys.exit(_fail(EXIT_IO, f"error:{where}: {e.strerror or _one_line(e)}"))
-    except KeyboardInterrupt:
-        out = getattr(args, "out", None) if args.command == "hunt" else None
-        where = f"; no summary.json was written, {out} holds only the episodes finished so far" if out else ""
-        sys.exit(_fail(EXIT_INTERRUPTED, f"interrupted{where}"))
+    except KeyboardInterrupt as e:
+        status = _fail(EXIT_INTERRUPTED, f"interrupted{getattr(e, 'detail', '')}")
+        if entry and threading.current_thread() is threading.main_thread():
+            # The process ends here, at once: a second Ctrl-C must not add a traceback to the
+            # line, and every file is closed already, so skip the interpreter's teardown
+            # (tearing down matplotlib alone takes a few tenths of a second).
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            for stream in (sys.stdout, sys.stderr):
+                try:
+                    stream.flush()
+                except (OSError, ValueError):
+                    pass
+            os._exit(status)
+        sys.exit(status)
 
 
 def _fail(status: int, message: str) -> int:

@@ -7,9 +7,14 @@ results do not depend on the number of threads.
 from __future__ import annotations
 
 import statistics
+from array import array
 from typing import Any, Callable, Iterable
 
+import numpy as np
+
 from wolfpack import _core
+from wolfpack._checks import check_flag, check_int, check_seed, check_threads, is_int
+from wolfpack.config import check_tree
 
 
 def run_episodes(
@@ -34,15 +39,25 @@ def run_episodes(
 
     ``progress(k)`` is called after each chunk with the number of episodes finished in it; the
     chunking does not change results.
+
+    Episode seeds ``seed + k`` are unsigned 64-bit: ``seed + episodes - 1 < 2**64``. A wrong
+    type (a str seed, a float count) is a TypeError; a bad value (a seed out of range,
+    ``episodes < 1``, ``chunk`` not an integer >= 1, ``record`` not True or False, ``threads``
+    outside 1..256) a ValueError naming it.
     """
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    if threads is not None and (not isinstance(threads, int) or threads < 1):
-        raise ValueError(f"threads must be a positive integer, got {threads!r}")
+    episodes = check_int(episodes, "episodes", 1)
+    seed = check_seed(seed, span=episodes)
+    record = check_flag(record, "record")
+    threads = check_threads(threads)
+    if chunk is not None and (not is_int(chunk) or chunk < 1):
+        raise ValueError(f"chunk must be None or an integer >= 1, got {chunk!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be None or a callable, got {type(progress).__name__}")
+    if params is not None:
+        check_tree(params, "params")
     params = params if params is not None else _core.default_params()
     if layout is not None:
+        check_tree(layout, "layout")
         _core.check_layout(params, layout, seed)
     if chunk is None:
         chunk = episodes if progress is None else max(1, min(episodes, 4 * (threads or 2)))
@@ -55,6 +70,47 @@ def run_episodes(
     return results
 
 
+class RunningSummary:
+    """The :func:`summarize` figures, gathered one episode at a time in constant memory per
+    episode (counters, plus one 4-byte capture step per captured episode for the median), so
+    that ``wolfpack hunt`` over millions of episodes does not grow with them."""
+
+    def __init__(self) -> None:
+        self.episodes = 0
+        self.outcomes = {"captured": 0, "collision": 0, "timeout": 0, "cornered": 0}
+        self.cornered_episodes = 0
+        self.capture_steps = array("i")
+        self.energy = 0.0
+        self.steps = 0
+
+    def add(self, result: dict[str, Any]) -> None:
+        outcome = str(result["outcome"])
+        self.episodes += 1
+        self.outcomes[outcome] = self.outcomes.get(outcome, 0) + 1
+        if outcome == "captured":
+            self.capture_steps.append(int(result["capture_step"]))
+        self.cornered_episodes += result.get("cornered_step") is not None
+        self.energy += float(np.sum(result["energy"]))
+        self.steps += int(result["steps"])
+
+    def summary(self, elapsed_s: float | None = None) -> dict:
+        n = self.episodes
+        rate = lambda k: self.outcomes[k] / n if n else 0.0  # noqa: E731
+        return {
+            "episodes": n,
+            "capture_rate": rate("captured"),
+            "collision_rate": rate("collision"),
+            "timeout_rate": rate("timeout"),
+            "cornered_rate": rate("cornered"),
+            "success_rate": (self.outcomes["captured"] + self.outcomes["cornered"]) / n if n else 0.0,
+            "cornered_episodes": self.cornered_episodes,
+            "median_capture_steps": float(statistics.median(self.capture_steps)) if self.capture_steps else None,
+            "mean_energy": self.energy / n if n else 0.0,
+            "env_steps_per_second": (self.steps / elapsed_s) if elapsed_s and elapsed_s > 0 else None,
+            "total_steps": self.steps,
+        }
+
+
 def summarize(results: Iterable[dict[str, Any]], elapsed_s: float | None = None) -> dict:
     """The ``wolfpack hunt --json`` summary: episodes, capture/collision/timeout rates, the
     cornered rate (episodes ended as ``cornered``, only with ``capture.cornered``), the success
@@ -62,21 +118,7 @@ def summarize(results: Iterable[dict[str, Any]], elapsed_s: float | None = None)
     cornered, whether or not that ended them), median capture steps (over captured episodes;
     ``None`` if none), mean total energy per episode, and env-steps per second (summed episode
     steps / wall time) when ``elapsed_s`` is given."""
-    results = list(results)
-    n = len(results)
-    outcomes = [r["outcome"] for r in results]
-    captured = [r["capture_step"] for r in results if r["outcome"] == "captured"]
-    steps = sum(int(r["steps"]) for r in results)
-    return {
-        "episodes": n,
-        "capture_rate": outcomes.count("captured") / n if n else 0.0,
-        "collision_rate": outcomes.count("collision") / n if n else 0.0,
-        "timeout_rate": outcomes.count("timeout") / n if n else 0.0,
-        "cornered_rate": outcomes.count("cornered") / n if n else 0.0,
-        "success_rate": (outcomes.count("captured") + outcomes.count("cornered")) / n if n else 0.0,
-        "cornered_episodes": sum(r.get("cornered_step") is not None for r in results),
-        "median_capture_steps": float(statistics.median(captured)) if captured else None,
-        "mean_energy": float(sum(float(r["energy"].sum()) for r in results) / n) if n else 0.0,
-        "env_steps_per_second": (steps / elapsed_s) if elapsed_s and elapsed_s > 0 else None,
-        "total_steps": steps,
-    }
+    tally = RunningSummary()
+    for r in results:
+        tally.add(r)
+    return tally.summary(elapsed_s)

@@ -27,6 +27,7 @@ from typing import Any, Mapping
 import gymnasium
 import numpy as np
 
+from wolfpack._checks import check_seed
 from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
 from wolfpack.parallel_env import action_box, check_render_mode, check_render_options, observation_box
 from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
@@ -59,8 +60,11 @@ class EscapeEnv(gymnasium.Env):
         return self._batch.params
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        seed = check_seed(seed, optional=True)  # before Gymnasium's own check (its own error type)
         super().reset(seed=seed)
         layout = None
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"options must be a dict, got {type(options).__name__}")
         if options:
             # Other keys are ignored, as Gymnasium and PettingZoo envs do with options they
             # do not know (PettingZoo's own API test passes one).

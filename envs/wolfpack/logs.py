@@ -3,6 +3,8 @@
 Layout of ``DIR``::
 
     DIR/summary.json                       written last (temp name, then rename)
+    DIR/INCOMPLETE                         only while the run is going, or after it was
+                                           interrupted (then there is no summary.json)
     DIR/summary.png                        outcome counts + capture-step histogram
     DIR/episode_{k:03d}/trajectory.npz     per-step logs of episode k (seed = seed + k)
     DIR/episode_{k:03d}/trajectory.png     paths (episodes k < --plots)
@@ -49,12 +51,15 @@ from __future__ import annotations
 
 import json
 import os
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 
 SUMMARY_NAME = "summary.json"
+#: The marker of a run in progress or interrupted: written first, removed once summary.json is.
+INCOMPLETE_NAME = "INCOMPLETE"
 
 
 def episode_dir(out: Path, k: int) -> Path:
@@ -103,21 +108,107 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
     }
 
 
+@contextmanager
+def atomic_path(path: Path, keep_suffix: bool = False) -> Iterator[Path]:
+    """Yields a temporary name beside ``path`` to write to; renames it to ``path`` when the
+    block ends normally and removes it whatever else happens (an error, a KeyboardInterrupt
+    landing inside the writer), so ``path`` only ever names a complete file. The name is
+    ``.NAME.tmp``, or with ``keep_suffix`` ``.STEM.tmp.SUFFIX`` (for writers that choose the
+    format by extension: matplotlib, ffmpeg)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}" if keep_suffix else f".{path.name}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def write_trajectory(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
     """Writes ``trajectory.npz`` (compressed: the interaction matrices are mostly zeros) under a
     temporary name first, then renames it: an interrupted write never leaves a file that looks
-    like a trajectory."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "wb") as f:
+    like a trajectory, nor the temporary file."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(f, **arrays)
-    os.replace(tmp, path)
 
 
 def load_trajectory(path: Path) -> dict[str, np.ndarray]:
     """Reads a ``trajectory.npz`` back into a dict of arrays (no pickles involved)."""
     with np.load(path, allow_pickle=False) as data:
         return {k: data[k] for k in data.files}
+
+
+#: The arrays ``wolfpack replay`` needs (older files may lack target_capture_step and
+#: cornered_step; seed is not drawn).
+REQUIRED_KEYS = ("wolves", "targets", "energy", "interaction", "outcome", "capture_step", "obstacle_poses", "obstacle_kind",
+                 "obstacle_radius", "obstacle_vertices", "border", "ts", "capture_distance")
+OBSTACLE_KINDS = ("static_circle", "moving_circle", "static_polygon", "moving_polygon")
+
+
+def check_trajectory(arrays: Mapping[str, np.ndarray]) -> None:
+    """Checks a ``trajectory.npz`` read back (:func:`load_trajectory`) against the table in this
+    module's docstring before anything draws it: the keys, numeric dtypes (no strings or
+    objects where numbers belong), shapes consistent with each other (T, N, M, K from
+    ``wolves``, ``targets`` and ``obstacle_poses``), finite poses, energies, radii, border and
+    capture distance. Raises ValueError naming the array and what is wrong."""
+    missing = [k for k in REQUIRED_KEYS if k not in arrays]
+    if missing:
+        raise ValueError(f"not a wolfpack trajectory (missing {', '.join(missing)})")
+    a = {k: np.asarray(v) for k, v in arrays.items()}
+    numeric = [k for k in REQUIRED_KEYS + ("target_capture_step", "cornered_step", "seed") if k in a and k not in ("outcome", "obstacle_kind")]
+    for k in numeric:
+        if a[k].dtype.kind not in "biuf":
+            raise ValueError(f"{k}: must hold numbers, got dtype {a[k].dtype}")
+    for k in ("outcome", "obstacle_kind"):
+        if a[k].dtype.kind != "U":
+            raise ValueError(f"{k}: must hold strings, got dtype {a[k].dtype}")
+
+    def shape(k: str, want: tuple, meaning: str) -> None:
+        if a[k].shape != want:
+            raise ValueError(f"{k}: expected shape {meaning} = {want}, got {a[k].shape}")
+
+    w, t, poses = a["wolves"], a["targets"], a["obstacle_poses"]
+    if w.ndim != 3 or w.shape[0] < 1 or w.shape[1] < 1 or w.shape[2] != 5:
+        raise ValueError(f"wolves: expected shape [T+1, N, 5] with T+1 >= 1 and N >= 1, got {w.shape}")
+    rows, n = w.shape[0], w.shape[1]
+    if t.ndim != 3 or t.shape[0] != rows or t.shape[1] < 1 or t.shape[2] != 5:
+        raise ValueError(f"targets: expected shape [T+1, M, 5] = [{rows}, M >= 1, 5] (T+1 from wolves), got {t.shape}")
+    m = t.shape[1]
+    if poses.ndim != 3 or poses.shape[0] != rows or poses.shape[2] != 3:
+        raise ValueError(f"obstacle_poses: expected shape [T+1, K, 3] = [{rows}, K, 3] (T+1 from wolves), got {poses.shape}")
+    k = poses.shape[1]
+    shape("energy", (rows, n + m), "[T+1, N+M]")
+    shape("interaction", (rows - 1, n + m, n + m), "[T, N+M, N+M]")
+    shape("obstacle_kind", (k,), "[K]")
+    shape("obstacle_radius", (k,), "[K]")
+    verts = a["obstacle_vertices"]
+    if verts.ndim != 3 or verts.shape[0] != k or verts.shape[2] != 2:
+        raise ValueError(f"obstacle_vertices: expected shape [K, V, 2] = [{k}, V, 2] (K from obstacle_poses), got {verts.shape}")
+    for key in ("outcome", "capture_step", "ts", "capture_distance", "cornered_step", "seed"):
+        if key in a and a[key].shape != ():
+            raise ValueError(f"{key}: expected a scalar, got shape {a[key].shape}")
+    if "target_capture_step" in a:
+        shape("target_capture_step", (m,), "[M]")
+    shape("border", (4,), "[x_min, y_min, x_max, y_max]")
+    for key in ("wolves", "targets", "energy", "obstacle_poses", "obstacle_radius", "border", "ts", "capture_distance"):
+        bad = ~np.isfinite(a[key])
+        if bad.any():
+            where = np.argwhere(bad)[0].tolist() if a[key].ndim else []
+            raise ValueError(f"{key}: not finite{f' at index {where}' if where else ''} ({a[key][tuple(where)] if where else a[key]})")
+    if np.isinf(verts).any():
+        raise ValueError("obstacle_vertices: infinite entries (only NaN padding is allowed)")
+    x0, y0, x1, y1 = a["border"].tolist()
+    if not (x0 < x1 and y0 < y1):
+        raise ValueError(f"border: expected x_min < x_max and y_min < y_max, got {a['border'].tolist()}")
+    if not float(a["ts"]) > 0 or not float(a["capture_distance"]) > 0:
+        raise ValueError(f"ts and capture_distance: must be > 0, got {float(a['ts'])} and {float(a['capture_distance'])}")
+    if (a["obstacle_radius"] < 0).any():
+        raise ValueError(f"obstacle_radius: must be >= 0, got {a['obstacle_radius'].tolist()}")
+    for i, kind in enumerate(a["obstacle_kind"].tolist()):
+        if kind not in OBSTACLE_KINDS:
+            raise ValueError(f"obstacle_kind[{i}]: expected one of {', '.join(OBSTACLE_KINDS)}, got {kind!r}")
+        if kind.endswith("polygon") and int((~np.isnan(verts[i]).any(axis=1)).sum()) < 3:
+            raise ValueError(f"obstacle_vertices[{i}]: a polygon needs at least 3 vertices")
 
 
 def episode_detail(result: Mapping[str, Any]) -> dict[str, Any]:
@@ -140,12 +231,11 @@ def episode_detail(result: Mapping[str, Any]) -> dict[str, Any]:
 
 def write_json_atomic(path: Path, data: Mapping[str, Any]) -> None:
     """Writes JSON to a temporary name in the same folder, then renames it into place, so a
-    reader (or a crashed run) never sees a half-written file under the final name."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", encoding="utf-8") as f:
-        json.dump(data, f, indent=2, allow_nan=False)
-        f.write("\n")
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    reader (or a crashed run) never sees a half-written file under the final name; the
+    temporary file is removed whatever happens."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=2, allow_nan=False)
+            f.write("\n")
+            f.flush()
+            os.fsync(f.fileno())

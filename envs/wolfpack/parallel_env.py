@@ -76,14 +76,16 @@ Termination / Truncation
     own; wolf: the episode's on success; −1 until then), ``cornered_step`` (int, the first step
     at which a target of the world was cornered, −1 if none ever was), ``energy``
     (Σ ½ m v² so far), ``collisions`` (steps in contact), ``distance`` (wolf: to the nearest
-    uncaptured target; target: to the nearest wolf).
+    uncaptured target, −1 when none is left; target: to the nearest wolf).
 
 Arguments
     ``parallel_env(params=None, *, learners="wolves", render_mode=None, render_options=None, seed=0, shared_space=False, **overrides)``:
     ``params`` is None (the documented scenario), a YAML path or a dict; overrides are dotted
     keys (``**{"world.wolves": 8}``) or ``world__wolves=8``, and ``max_cycles`` is PettingZoo's
     name for ``world.max_steps``; a keyword that names no params key is a TypeError, a bad value
-    a ValueError naming the key. ``reset(seed=None, options=None)``;
+    a ValueError naming the key; a seed must be an integer in [0, 2**64) (a ValueError
+    otherwise, a TypeError for a str, float or bool), flags True or False (ValueError).
+    ``reset(seed=None, options=None)``;
     ``options={"layout": LAYOUT}`` starts from an explicit state (the layout format of docs/interface.md; example:
     examples/layout.json) with this env's agent
     counts (a polygon with ``"moving": false`` still rotates in place, as world-and-laws §1.3's static
@@ -129,11 +131,12 @@ def observation_box(dim: int) -> spaces.Box:
 
 
 def check_render_options(options: Mapping[str, Any] | None) -> dict:
-    """``render_options`` as FrameOptions keywords; ValueError naming an unknown key."""
+    """``render_options`` as FrameOptions keywords; ValueError naming an unknown key, TypeError
+    if it is not a mapping."""
     if options is None:
         return {}
     if not isinstance(options, Mapping):
-        raise ValueError(f"render_options must be a dict, got {type(options).__name__}")
+        raise TypeError(f"render_options must be a dict, got {type(options).__name__}")
     known = ("width", "height", "trail", "sensing", "links")
     unknown = sorted(set(options) - set(known))
     if unknown:
@@ -207,7 +210,7 @@ class WolfpackParallelEnv(ParallelEnv):
         layout = None
         if options is not None:
             if not isinstance(options, Mapping):
-                raise ValueError(f"options must be a dict, got {type(options).__name__}")
+                raise TypeError(f"options must be a dict, got {type(options).__name__}")
             # Other keys are ignored, as Gymnasium and PettingZoo envs do with options they
             # do not know (PettingZoo's own API test passes one).
             layout = options.get("layout")

@@ -251,8 +251,10 @@ def write_video(frames, path, fps: float = VIDEO_FPS) -> int:
 
     count = 0
     # macro_block_size=1: keep the frame size as it is (the default size 512 is a multiple of
-    # 16 anyway); yuv420p so that every player decodes it.
-    with imageio.get_writer(str(path), fps=fps, codec="libx264", macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
+    # 16 anyway); yuv420p so that every player decodes it. Log level "fatal": a Ctrl-C that lands
+    # inside a frame write leaves ffmpeg a partial frame, which it would report on the user's
+    # terminal below the one-line "interrupted" (an ffmpeg failure still raises here).
+    with imageio.get_writer(str(path), fps=fps, codec="libx264", macro_block_size=1, pixelformat="yuv420p", ffmpeg_log_level="fatal") as writer:
         for frame in frames:
             writer.append_data(frame)
             count += 1

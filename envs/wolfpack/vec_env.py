@@ -39,6 +39,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from wolfpack._checks import check_seed
 from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild
 from wolfpack.parallel_env import action_box, observation_box
 
@@ -108,7 +109,7 @@ class WolfpackVecEnv(VecEnv):
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
         if seed is None:
             seed = int(np.random.randint(0, 2**31 - 1))
-        self._next_seed = int(seed)
+        self._next_seed = check_seed(seed, span=self.worlds)
         return [self._next_seed + e for e in range(self.worlds) for _ in range(self.per_world)]
 
     def reset(self) -> np.ndarray:

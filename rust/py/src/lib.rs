@@ -72,6 +72,9 @@ fn interruptible<T: Send>(py: Python<'_>, stop: &AtomicBool, work: impl FnOnce()
 /// input is refused before anything recurses over it.
 const MAX_DEPTH: usize = 32;
 
+/// Most values (leaves and containers) a params or layout tree may hold.
+const MAX_NODES: usize = 1_000_000;
+
 fn params_from(obj: &Bound<'_, PyAny>) -> PyResult<Params> {
     if obj.is_none() {
         return Ok(Params::default());
@@ -86,15 +89,21 @@ fn params_from(obj: &Bound<'_, PyAny>) -> PyResult<Params> {
 /// `bool` is not an integer here, as it would be through a generic converter). Values JSON
 /// cannot hold are rejected with their key path: integers beyond 64 bits, NaN and ±inf.
 fn plain_value(obj: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
-    to_plain(obj, &mut String::new(), 0)
+    to_plain(obj, &mut String::new(), 0, &mut { MAX_NODES })
 }
 
-fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize) -> PyResult<serde_json::Value> {
+fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize, budget: &mut usize) -> PyResult<serde_json::Value> {
     use serde_json::Value;
     let at = |path: &str| if path.is_empty() { "params".to_string() } else { path.to_string() };
     if depth > MAX_DEPTH {
         return Err(PyValueError::new_err(format!("{}: nested deeper than {MAX_DEPTH} levels", at(path))));
     }
+    // Shared objects (YAML aliases) are expanded here, so count every visit: a "billion laughs"
+    // tree is refused after a million values instead of exhausting memory.
+    if *budget == 0 {
+        return Err(PyValueError::new_err(format!("{}: more than {MAX_NODES} values in all", at(path))));
+    }
+    *budget -= 1;
     if obj.is_none() {
         Ok(Value::Null)
     } else if let Ok(b) = obj.cast::<PyBool>() {
@@ -123,7 +132,7 @@ fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize) -> PyResult
                 path.push('.');
             }
             path.push_str(&key);
-            let value = to_plain(&v, path, depth + 1)?;
+            let value = to_plain(&v, path, depth + 1, budget)?;
             path.truncate(len);
             map.insert(key, value);
         }
@@ -133,7 +142,7 @@ fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize) -> PyResult
         for (i, v) in obj.try_iter()?.enumerate() {
             let len = path.len();
             path.push_str(&format!("[{i}]"));
-            items.push(to_plain(&v?, path, depth + 1)?);
+            items.push(to_plain(&v?, path, depth + 1, budget)?);
             path.truncate(len);
         }
         Ok(Value::Array(items))

@@ -231,8 +231,10 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut super::WolfMemory, row:
     // A slot beyond a wall (the target against it) moves inside, along the wall: a wolf
     // driving at the wall only stalls in the feasibility filter.
     let ring = q_r + f.radius * Vec2::new(angle.cos(), angle.sin());
-    let m = f.clearance;
-    let slot = Vec2::new(ring.x.clamp(x0 + m, x1 - m), ring.y.clamp(y0 + m, y1 - m));
+    // The margin never exceeds half the arena (a clearance wider than a small arena would make
+    // an empty clamp range): then the slot sits on the arena's middle line.
+    let (mx, my) = (f.clearance.min((x1 - x0) / 2.0), f.clearance.min((y1 - y0) / 2.0));
+    let slot = Vec2::new(ring.x.clamp(x0 + mx, x1 - mx), ring.y.clamp(y0 + my, y1 - my));
     let (q_i, p_i) = (me.pos, velocity(&me));
 
     let mut u = -f.alpha * ((q_i - slot) + f.gamma * (p_i - p_r));
