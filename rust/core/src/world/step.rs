@@ -363,13 +363,13 @@ fn encircled(wolves: &[Vec2], target: Vec2) -> bool {
     (1..hull.len() - 1).any(|k| triangle_contains(&[hull[0].coords, hull[k].coords, hull[k + 1].coords], target))
 }
 
-/// Applies a side's limits: v ∈ [0, v_max] (no reverse), |ω| ≤ ω_max.
 /// Strictly inside the arena.
 fn inside(pos: Vec2, border: &[f64; 4]) -> bool {
     let [x0, y0, x1, y1] = *border;
     pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1
 }
 
+/// Applies a side's limits: v ∈ [0, v_max] (no reverse), |ω| ≤ ω_max.
 fn clamp(c: Command, s: &SideParams) -> Command {
     Command { v: c.v.clamp(0.0, s.v_max), omega: c.omega.clamp(-s.omega_max, s.omega_max) }
 }
@@ -483,7 +483,7 @@ mod tests {
         let bad = [Command { v: 1.0, omega: f64::NAN }];
         w.step_with(None, Some(&bad));
         assert!(w.fault().unwrap().starts_with("the given commands produced a non-finite command for target 0"));
-        // A scripted law's fault names the law and the key that selects it.
+        // A scripted law's fault names the law.
         let mut w = small_world();
         w.target_cmds[0] = Command { v: f64::NAN, omega: 0.0 };
         let msg = w.non_finite_command(false, false).unwrap();
