@@ -12,10 +12,13 @@ from typing import Any
 
 import numpy as np
 
+from wolfpack import _core
+
 #: Seeds are unsigned 64-bit integers: 0 <= seed < 2**64.
 SEED_END = 2**64
-#: The most worker threads a run may ask for (the core enforces the same bound).
-MAX_THREADS = 256
+#: The most worker threads a run may ask for: the core's bound, checked here first so that a
+#: wrong type is a TypeError.
+MAX_THREADS: int = _core.MAX_THREADS
 
 
 def is_int(value: Any) -> bool:

@@ -6,6 +6,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __version__: str
+#: The most threads a pool may have (``wolfpack_core::episode::MAX_THREADS``).
+MAX_THREADS: int
 
 def default_params() -> dict[str, Any]:
     """The documented scenario's parameters (``capture.count`` null: derived as ⌈0.8 N⌉)."""

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 from wolfpack import _core, config, logs
-from wolfpack._checks import MAX_THREADS
+from wolfpack._checks import MAX_THREADS, check_seed
 from wolfpack.episodes import RunningSummary, run_episodes
 
 PROG = "wolfpack"
@@ -558,14 +558,8 @@ def _table(summary: dict, args, resolved: dict) -> str:
     return "\n".join(lines)
 
 
-def _check_seed_range(seed: int, episodes: int) -> None:
-    """Episode seeds S + k are unsigned 64-bit integers."""
-    if seed + episodes - 1 >= 2**64:
-        raise ValueError(f"--seed: seed + episodes - 1 must be < 2**64, got {seed} + {episodes} - 1")
-
-
 def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
-    _check_seed_range(args.seed, args.episodes)
+    check_seed(args.seed, "--seed", span=args.episodes)  # episode seeds S + k are u64
     params, resolved, layout = resolve_scenario(args)
     out = Path(args.out) if args.out is not None else None
     if args.video and out is None:
@@ -688,7 +682,7 @@ def cmd_replay(args: argparse.Namespace, argv: Sequence[str]) -> None:
 
 
 def cmd_bench(args: argparse.Namespace, argv: Sequence[str]) -> None:
-    _check_seed_range(args.seed, args.episodes)
+    check_seed(args.seed, "--seed", span=args.episodes)  # episode seeds S + k are u64
     params = _core.default_params()
     run_episodes(params, 1, args.seed, threads=1)  # warm-up: page in the code, start a pool
     rows = []

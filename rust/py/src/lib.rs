@@ -522,6 +522,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // would fail to import it (KeyboardInterrupt pending) and rust-numpy would panic.
     let _ = PyArray1::<f64>::zeros(m.py(), 1, false);
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("MAX_THREADS", wolfpack_core::episode::MAX_THREADS)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(validate_params, m)?)?;
     m.add_function(wrap_pyfunction!(param_limits, m)?)?;
