@@ -485,7 +485,8 @@ fn run_in<R: Send>(pool: &Option<rayon::ThreadPool>, f: impl FnOnce() -> R + Sen
 fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layout>) -> Result<Slot> {
     let world = match layout {
         Some(l) => World::from_layout_episode(params.clone(), seed, episode, l)?,
-        None => World::new_episode(params.clone(), seed, episode)?,
+        // BatchEnv::new validated the params; they are immutable behind the Arc since.
+        None => World::new_episode_prevalidated(params.clone(), seed, episode)?,
     };
     let (n, m) = (world.n_wolves(), world.n_targets());
     Ok(Slot { rewards: RewardState::new(&world), world, seed, episode, observer: Observer::default(), wolf_cmds: vec![Command::default(); n], target_cmds: vec![Command::default(); m] })

@@ -123,9 +123,15 @@ pub fn run_episode(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, rec
 /// [`run_episode`] that gives up with [`Error::Interrupted`] as soon as `stop` is set (checked
 /// every step: one relaxed load).
 pub fn run_episode_until(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, record: bool, stop: &AtomicBool) -> Result<EpisodeResult> {
+    params.validate()?;
+    run_prevalidated(params, seed, layout, record, stop)
+}
+
+/// [`run_episode_until`] for params validated by the caller.
+fn run_prevalidated(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, record: bool, stop: &AtomicBool) -> Result<EpisodeResult> {
     let mut world = match layout {
         Some(l) => World::from_layout(params.clone(), seed, l)?,
-        None => World::new(params.clone(), seed)?,
+        None => World::new_episode_prevalidated(params.clone(), seed, 0)?,
     };
     let (n, m) = (world.n_wolves(), world.n_targets());
     let mut traj = record.then(|| {
@@ -191,7 +197,7 @@ pub fn run_episodes_until(params: &Params, seed: u64, first: u64, count: u64, la
         )));
     }
     let params = Arc::new(params.clone());
-    let work = || (first..first + count).into_par_iter().map(|k| run_episode_until(&params, seed.wrapping_add(k), layout, record, stop)).collect::<Result<Vec<_>>>();
+    let work = || (first..first + count).into_par_iter().map(|k| run_prevalidated(&params, seed.wrapping_add(k), layout, record, stop)).collect::<Result<Vec<_>>>();
     match threads {
         None => work(),
         Some(t) => rayon::ThreadPoolBuilder::new()

@@ -184,6 +184,7 @@ fn write_relative(me: &AgentState, (s, c): (f64, f64), other: &AgentState, (so, 
 /// Each obstacle is tested only against the rays inside the angular window of its bounding
 /// disc, and only where it could still beat the ray's nearest hit so far: the exact casts
 /// (parry) run a few times per agent instead of rays × obstacles times.
+#[inline(never)]
 fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -> usize {
     let rays = out.len();
     if rays == 0 {

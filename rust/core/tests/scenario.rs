@@ -164,6 +164,7 @@ fn trace() {
             wolves: &wolves,
             targets: &targets,
             obstacles: &w.obstacles,
+            near: None,
             wolf_target: &w.wolf_target,
             wolf_senses: &w.wolf_senses,
             target_seen_at: &w.target_seen_at,

@@ -11,9 +11,31 @@ use crate::math::{cross, unit, Point2, Vec2, FRAC_PI_2};
 /// Returns `[apex, left corner, right corner]` (counter-clockwise).
 #[inline]
 pub fn body_triangle(p: Vec2, theta: f64, base: f64, height: f64) -> [Vec2; 3] {
-    let fwd = unit(theta);
-    let side = unit(theta + FRAC_PI_2);
-    [p + fwd * height, p + side * (0.5 * base), p - side * (0.5 * base)]
+    BodyFrame::new(theta, base, height).at(p)
+}
+
+/// A body's vertex offsets from its pose point at one heading. The feasibility filter tries
+/// several positions at the same heading; building the frame once saves `body_triangle`'s two
+/// `sin_cos` per try. `BodyFrame::new(θ, b, h).at(p)` is `body_triangle(p, θ, b, h)` bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyFrame {
+    ahead: Vec2,
+    half_base: Vec2,
+}
+
+impl BodyFrame {
+    #[inline]
+    pub fn new(theta: f64, base: f64, height: f64) -> Self {
+        let fwd = unit(theta);
+        let side = unit(theta + FRAC_PI_2);
+        Self { ahead: fwd * height, half_base: side * (0.5 * base) }
+    }
+
+    /// `[apex, left corner, right corner]` at pose point `p`.
+    #[inline]
+    pub fn at(&self, p: Vec2) -> [Vec2; 3] {
+        [p + self.ahead, p + self.half_base, p - self.half_base]
+    }
 }
 
 #[inline]

@@ -130,7 +130,7 @@ pub fn collect_walls(p: Vec2, border: &[f64; 4], range: f64, items: &mut Items) 
 }
 
 /// Obstacles whose surface is closer than `range`.
-pub fn collect_obstacles(p: Vec2, obstacles: &[Obstacle], range: f64, items: &mut Items) {
+pub fn collect_obstacles<'a>(p: Vec2, obstacles: impl IntoIterator<Item = &'a Obstacle>, range: f64, items: &mut Items) {
     for o in obstacles {
         if let Some(e) = o.extent(p, range) {
             items.push(Item { kind: ItemKind::Obstacle(o.kind), psi: e.psi, delta: e.delta, dist: e.dist });
@@ -401,7 +401,7 @@ pub fn wolf_mode(i: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut
     let me = snap.wolves[i];
     let mut items = Items::default();
     collect_walls(me.pos, &p.world.border, a.wall_range, &mut items);
-    collect_obstacles(me.pos, snap.obstacles, a.obstacle_range, &mut items);
+    collect_obstacles(me.pos, crate::world::near(snap.obstacles, snap.near, i), a.obstacle_range, &mut items);
     collect_partners(i, snap.wolves, p.seed000.partner_range, p.seed000.partner_half_angle, &mut items);
 
     if early_exit(i, snap, &items) {
@@ -446,7 +446,7 @@ pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut Da
     let side = &p.agents.target;
     let mut items = Items::default();
     collect_walls(me.pos, &p.world.border, a.wall_range, &mut items);
-    collect_obstacles(me.pos, snap.obstacles, a.obstacle_range, &mut items);
+    collect_obstacles(me.pos, crate::world::near(snap.obstacles, snap.near, snap.wolves.len() + j), a.obstacle_range, &mut items);
     let merged = Merged::new(items.as_slice(), kappa_row(a, false, items.count()), a.wall_emergency);
 
     if let Some(away) = tick_danger(danger, merged.emergency(a.danger_distance), a.danger_steps) {

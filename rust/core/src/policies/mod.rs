@@ -39,6 +39,9 @@ pub struct Snapshot<'a> {
     pub wolves: &'a [AgentState],
     pub targets: &'a [AgentState],
     pub obstacles: &'a [Obstacle],
+    /// The obstacles near each agent this step (wolves, then targets); `None` means "look at
+    /// every obstacle" — the same answers, only slower ([`crate::world::Neighbours`]).
+    pub near: Option<&'a crate::world::Neighbours>,
     /// The target each wolf hunts (its nearest uncaptured target, re-picked every
     /// `world.retarget_period` steps).
     pub wolf_target: &'a [usize],
@@ -181,6 +184,7 @@ pub(crate) mod fixture {
                 wolves: &self.wolves,
                 targets: &self.targets,
                 obstacles: &self.obstacles,
+                near: None,
                 wolf_target: &self.wolf_target,
                 wolf_senses: &self.wolf_senses,
                 target_seen_at: &self.seen,

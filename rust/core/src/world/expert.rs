@@ -43,6 +43,7 @@ impl World {
             wolves: &self.wolves,
             targets: &self.targets,
             obstacles: &obstacles,
+            near: None,
             wolf_target: &wolf_target,
             wolf_senses: &wolf_senses,
             target_seen_at: &seen,

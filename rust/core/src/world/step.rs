@@ -5,7 +5,7 @@ use parry2d_f64::transformation::convex_hull;
 
 use super::{AgentState, Outcome, World};
 use crate::config::{CaptureRule, Params, SideParams};
-use crate::geometry::{body_triangle, triangle_contains, triangles_overlap};
+use crate::geometry::{body_triangle, triangle_contains, triangles_overlap, BodyFrame};
 use crate::math::{unit, wrap, Point2, Vec2};
 use crate::policies::saturator::saturate;
 use crate::policies::{self, Command, Snapshot};
@@ -27,11 +27,10 @@ impl World {
         if self.is_done() {
             return self.outcome;
         }
-        let p = self.params.clone();
         // 1. Obstacles move.
-        for o in &mut self.obstacles {
-            o.advance(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
-        }
+        self.move_obstacles();
+        let cut = super::cull_distance(&self.params);
+        self.near.build(self.wolves.iter().chain(&self.targets).map(|a| a.pos), &self.obstacles, cut);
         // 2. Assignment, sensing and the snapshot every controller reads.
         self.sense();
         self.control(wolf_cmds, target_cmds);
@@ -51,6 +50,16 @@ impl World {
             self.fault = Some(fault);
         }
         self.outcome
+    }
+
+    // The phases below are kept out of line: each runs once per step, and callgrind profiles
+    // (BENCHMARKS.md) attribute the step's cost to them by name.
+    #[inline(never)]
+    fn move_obstacles(&mut self) {
+        let p = &*self.params;
+        for o in &mut self.obstacles {
+            o.advance(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
+        }
     }
 
     /// The first agent whose command this step is not finite, as a one-line message naming
@@ -97,6 +106,7 @@ impl World {
 
     /// Target assignment, sensing flags, first sightings and the sensing entries of the
     /// interaction matrix, for the step about to be taken.
+    #[inline(never)]
     fn sense(&mut self) {
         sense_into(&self.params, self.t, &self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target, &mut self.wolf_senses, &mut self.target_seen_at, &mut self.interaction);
     }
@@ -104,6 +114,7 @@ impl World {
     /// Step 2: every controller reads the same snapshot; commands land in the scratch buffers.
     /// A side driven by given commands still runs its law when `track_laws` is set, so that
     /// the law's memory (and its random stream) follows the episode for `expert_desired`.
+    #[inline(never)]
     fn control(&mut self, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) {
         let (n, k) = (self.n_wolves(), self.n_wolves() + self.n_targets());
         let snap = Snapshot {
@@ -112,6 +123,7 @@ impl World {
             wolves: &self.wolves,
             targets: &self.targets,
             obstacles: &self.obstacles,
+            near: Some(&self.near),
             wolf_target: &self.wolf_target,
             wolf_senses: &self.wolf_senses,
             target_seen_at: &self.target_seen_at,
@@ -146,24 +158,37 @@ impl World {
         }
     }
 
+    #[inline(never)]
     fn move_wolves(&mut self) {
         let p = self.params.clone();
         let b = &p.agents.body;
         let ts = p.world.ts;
-        self.bodies.clear();
-        self.bodies.extend(self.wolves.iter().map(|w| body_triangle(w.pos, w.theta, b.base, b.height)));
-        for i in 0..self.wolves.len() {
+        // The bodies the last step left are those of the current poses, unless someone moved a
+        // wolf in between (tests, layouts): reuse them when the poses are the same.
+        let n = self.wolves.len();
+        let current = self.bodies.len() == n && self.body_poses.iter().zip(&self.wolves).all(|(q, w)| *q == (w.pos, w.theta));
+        if !current {
+            self.bodies.clear();
+            self.bodies.extend(self.wolves.iter().map(|w| body_triangle(w.pos, w.theta, b.base, b.height)));
+            self.body_poses.clear();
+            self.body_poses.extend(self.wolves.iter().map(|w| (w.pos, w.theta)));
+        }
+        for i in 0..n {
             let cmd = clamp(self.wolf_cmds[i], &p.agents.wolf);
             let w = self.wolves[i];
             let mut theta = wrap(w.theta + cmd.omega * ts);
             let mut omega = cmd.omega;
             let mut v = cmd.v;
+            // One sin_cos for the direction of travel and two for the new body, whatever the
+            // number of halvings (the same values, bit for bit, as computing them per try).
+            let dir = unit(w.theta);
+            let mut frame = BodyFrame::new(theta, b.base, b.height);
             if p.world.feasibility_filter {
                 // SPEC §1.5: a move feasible as commanded is made as commanded, however small
                 // its v; only a speed reached by halving is floored at 0.01.
                 loop {
-                    let pos = w.pos + unit(w.theta) * (v * ts);
-                    if self.wolf_pose_feasible(i, pos, theta) {
+                    let pos = w.pos + dir * (v * ts);
+                    if self.wolf_pose_feasible(i, pos, &frame) {
                         break;
                     }
                     v *= 0.5;
@@ -172,15 +197,19 @@ impl World {
                         // SPEC: below 0.01 it only turns. A turn on the spot that would itself
                         // touch a wolf or an obstacle is not made either (the reference let it
                         // happen; every wolf–wolf collision measured here came from one).
-                        if omega != 0.0 && !self.wolf_pose_feasible(i, w.pos, theta) && self.wolf_pose_feasible(i, w.pos, w.theta) {
-                            theta = w.theta;
-                            omega = 0.0;
+                        if omega != 0.0 && !self.wolf_pose_feasible(i, w.pos, &frame) {
+                            let unturned = BodyFrame::new(w.theta, b.base, b.height);
+                            if self.wolf_pose_feasible(i, w.pos, &unturned) {
+                                theta = w.theta;
+                                omega = 0.0;
+                                frame = unturned;
+                            }
                         }
                         break;
                     }
                 }
             }
-            let mut pos = w.pos + unit(w.theta) * (v * ts);
+            let mut pos = w.pos + dir * (v * ts);
             if !inside(pos, &p.world.border) {
                 // Without the filter the walls still hold (nothing leaves the arena, whose walls
                 // every observation and law assume): the move is not made, the wolf only turns.
@@ -189,32 +218,35 @@ impl World {
             }
             let mass = p.agents.wolf.mass;
             self.wolves[i] = AgentState { pos, theta, v, omega, energy: w.energy + 0.5 * mass * v * v };
-            self.bodies[i] = body_triangle(pos, theta, b.base, b.height);
+            self.bodies[i] = frame.at(pos);
+            self.body_poses[i] = (pos, theta);
         }
     }
 
     /// New pose strictly inside the border, body clear of obstacles and of the other wolves'
     /// current bodies.
-    fn wolf_pose_feasible(&self, i: usize, pos: Vec2, theta: f64) -> bool {
+    fn wolf_pose_feasible(&self, i: usize, pos: Vec2, frame: &BodyFrame) -> bool {
         let p = &self.params;
         let [x0, y0, x1, y1] = p.world.border;
         if !(pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1) {
             return false;
         }
-        let body = body_triangle(pos, theta, p.agents.body.base, p.agents.body.height);
+        let body = frame.at(pos);
         let reach = p.agents.body.reach();
-        if self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
+        if super::near(&self.obstacles, Some(&self.near), i).any(|o| o.overlaps_triangle(&body)) {
             return false;
         }
         !self.bodies.iter().enumerate().any(|(j, other)| j != i && (self.wolves[j].pos - pos).norm() <= reach && triangles_overlap(&body, other))
     }
 
+    #[inline(never)]
     fn move_targets(&mut self) {
         let p = self.params.clone();
         let b = &p.agents.body;
         let ts = p.world.ts;
         let side = p.agents.target.side();
         let [x0, y0, x1, y1] = p.world.border;
+        let n = self.wolves.len();
         for j in 0..self.targets.len() {
             let t = self.targets[j];
             let mut cmd = clamp(self.target_cmds[j], &side);
@@ -228,15 +260,16 @@ impl World {
             }
             let theta = wrap(t.theta + cmd.omega * ts);
             let mut v = cmd.v;
-            let pos = t.pos + unit(t.theta) * (v * ts);
+            let dir = unit(t.theta);
+            let pos = t.pos + dir * (v * ts);
             if p.world.feasibility_filter && v > 0.0 {
                 let inside = pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1;
                 let body = body_triangle(pos, theta, b.base, b.height);
-                if !inside || self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
+                if !inside || super::near(&self.obstacles, Some(&self.near), n + j).any(|o| o.overlaps_triangle(&body)) {
                     v = 0.0; // SPEC: a target that cannot move feasibly only turns.
                 }
             }
-            let mut pos = t.pos + unit(t.theta) * (v * ts);
+            let mut pos = t.pos + dir * (v * ts);
             if !inside(pos, &p.world.border) {
                 v = 0.0; // the walls hold without the filter too (see move_wolves)
                 pos = t.pos;
@@ -247,6 +280,7 @@ impl World {
     }
 
     /// Step 4: collisions, captures, the episode's end.
+    #[inline(never)]
     fn judge(&mut self) {
         let p = self.params.clone();
         let n = self.n_wolves();
@@ -254,7 +288,7 @@ impl World {
         let mut wolf_collided = false;
         for i in 0..n {
             let body = self.bodies[i];
-            let hit_obstacle = self.obstacles.iter().any(|o| o.overlaps_triangle(&body));
+            let hit_obstacle = super::near(&self.obstacles, Some(&self.near), i).any(|o| o.overlaps_triangle(&body));
             let hit_wolf = (0..n).any(|j| j != i && (self.wolves[j].pos - self.wolves[i].pos).norm() <= reach && triangles_overlap(&body, &self.bodies[j]));
             if hit_obstacle || hit_wolf {
                 self.collisions[i] += 1;
@@ -263,7 +297,7 @@ impl World {
         }
         for j in 0..self.targets.len() {
             let body = self.body(&self.targets[j]);
-            if self.obstacles.iter().any(|o| o.overlaps_triangle(&body)) {
+            if super::near(&self.obstacles, Some(&self.near), n + j).any(|o| o.overlaps_triangle(&body)) {
                 self.collisions[n + j] += 1;
             }
         }
