@@ -80,24 +80,67 @@ pub fn polygon_visible_extent(poly: &[Vec2], center: Vec2, p: Vec2, range: f64) 
         return Some(Extent { psi: angle_of(center - p), delta: FRAC_PI_2, dist: 0.0 });
     }
     let psi0 = angle_of(closest - p);
-    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    // lo / hi: the extreme angular offsets from ψ₀ of the clipped edges' endpoints. Only the
+    // endpoints whose pseudo-angle (no trigonometry) is within KEY_SLACK of an extreme get an
+    // angle, and lo / hi are the min / max of those angles: the same numbers, bit for bit, as
+    // taking the angle of every endpoint, for ≈ 2 atan2 per call instead of ≈ 12. The slack
+    // covers the pseudo-angle's own rounding, so near-ties are decided by the angles as before.
+    const KEY_SLACK: f64 = 1e-9;
+    const KEPT: usize = 64;
+    let r = closest - p;
+    let mut kept = [(0.0f64, Vec2::zeros()); KEPT];
+    let (mut count, mut lo_key, mut hi_key) = (0usize, 0.0f64, 0.0f64);
     let n = poly.len();
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
     for i in 0..n {
         if let Some((a, b)) = segment_disc_clip(poly[i], poly[(i + 1) % n], p, range) {
             for q in [a, b] {
-                let off = wrap_pi(angle_of(q - p) - psi0);
-                lo = lo.min(off);
-                hi = hi.max(off);
+                let key = pseudo_angle(r, q - p);
+                lo_key = lo_key.min(key);
+                hi_key = hi_key.max(key);
+                if count < KEPT {
+                    kept[count] = (key, q);
+                } else {
+                    // More endpoints than kept (a polygon of > 32 edges within range): the
+                    // plain way for this one.
+                    let off = wrap_pi(angle_of(q - p) - psi0);
+                    lo = lo.min(off);
+                    hi = hi.max(off);
+                }
+                count += 1;
             }
+        }
+    }
+    for &(key, q) in &kept[..count.min(KEPT)] {
+        if key <= lo_key + KEY_SLACK || key >= hi_key - KEY_SLACK {
+            let off = wrap_pi(angle_of(q - p) - psi0);
+            lo = lo.min(off);
+            hi = hi.max(off);
         }
     }
     Some(Extent { psi: wrap(psi0 + 0.5 * (lo + hi)), delta: 0.5 * (hi - lo), dist })
 }
 
+/// A number that orders directions `u` by their signed angle from `r` in (−π, π] exactly as
+/// the angle does, without trigonometry ("diamond angle"): in (−2, 2], 0 along `r`, ±1 at right
+/// angles.
+#[inline]
+fn pseudo_angle(r: Vec2, u: Vec2) -> f64 {
+    let (c, d) = (r.x * u.y - r.y * u.x, r.dot(&u));
+    let s = c / (c.abs() + d.abs());
+    if d >= 0.0 {
+        s
+    } else if c >= 0.0 {
+        2.0 - s
+    } else {
+        -2.0 - s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::PI;
+    use crate::math::{PI, TAU};
 
     fn v(x: f64, y: f64) -> Vec2 {
         Vec2::new(x, y)
@@ -144,6 +187,57 @@ mod tests {
         // Tangent rays through the near corners (±0.5, 2.5).
         assert!((e.delta - (0.5f64 / 2.5).atan()).abs() < 1e-12);
         assert!(polygon_visible_extent(&s, v(0.0, 3.0), v(0.0, 0.0), 2.4).is_none());
+    }
+
+    /// The plain definition: the angle of every clipped endpoint.
+    fn extent_by_every_angle(poly: &[Vec2], center: Vec2, p: Vec2, range: f64) -> Option<Extent> {
+        let (closest, dist) = polygon_closest_point(poly, p);
+        if dist >= range || polygon_contains(poly, p) || dist == 0.0 {
+            return polygon_visible_extent(poly, center, p, range);
+        }
+        let psi0 = angle_of(closest - p);
+        let (mut lo, mut hi) = (0.0f64, 0.0f64);
+        for i in 0..poly.len() {
+            if let Some((a, b)) = segment_disc_clip(poly[i], poly[(i + 1) % poly.len()], p, range) {
+                for q in [a, b] {
+                    let off = wrap_pi(angle_of(q - p) - psi0);
+                    lo = lo.min(off);
+                    hi = hi.max(off);
+                }
+            }
+        }
+        Some(Extent { psi: wrap(psi0 + 0.5 * (lo + hi)), delta: 0.5 * (hi - lo), dist })
+    }
+
+    #[test]
+    fn pseudo_angle_selection_gives_the_angles_bit_for_bit() {
+        use crate::config::ObstacleParams;
+        use crate::world::Obstacle;
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let shapes = ObstacleParams::default();
+        let mut compared = 0;
+        for _ in 0..3000 {
+            let o = Obstacle::random_polygon(&mut rng, v(0.0, 0.0), false, &shapes);
+            let p = v(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0));
+            let range = rng.random_range(0.2..4.0);
+            let (got, want) = (polygon_visible_extent(&o.vertices, o.center, p, range), extent_by_every_angle(&o.vertices, o.center, p, range));
+            assert_eq!(got.map(|e| (e.psi.to_bits(), e.delta.to_bits(), e.dist.to_bits())), want.map(|e| (e.psi.to_bits(), e.delta.to_bits(), e.dist.to_bits())), "p {p:?} range {range}");
+            compared += usize::from(got.is_some());
+        }
+        assert!(compared > 500, "{compared}");
+    }
+
+    #[test]
+    fn pseudo_angle_orders_like_the_angle() {
+        let r = v(0.3, -0.7);
+        let mut prev = f64::NEG_INFINITY;
+        for k in 1..720 {
+            let a = -PI + k as f64 * (TAU / 720.0);
+            let key = pseudo_angle(r, crate::math::na::Rotation2::new(a) * r * 2.5);
+            assert!(key > prev, "{a}");
+            prev = key;
+        }
     }
 
     #[test]
