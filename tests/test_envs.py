@@ -205,6 +205,43 @@ def test_vec_env_autoreset_terminal_observation_and_truncation():
     assert venv.seed(7)[:6] == [7] * 5 + [8]
 
 
+def test_vec_env_infos_are_built_only_for_slots_whose_world_ended():
+    """Running slots share one empty read-only mapping (SB3 only reads them); the slots of a
+    world that ended get dicts of their own whose numbers are that world's row of
+    ``step_infos``; reset infos carry every slot's numbers."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    venv = wolfpack.make_vec_env(num_envs=4, seed=3, **{"world.max_steps": 30})
+    venv.reset()
+    assert len(venv.reset_infos) == 20 and venv.reset_infos[7]["outcome_name"] == "running"
+    assert venv.reset_infos[7]["distance"] == float(venv.step_infos["distance"][1, 2])
+    rng = np.random.default_rng(0)
+    ended_seen = 0
+    for _ in range(40):
+        _, _, dones, infos = venv.step(rng.uniform(-1, 1, (20, 2)).astype(np.float32))
+        assert len(infos) == 20
+        for k, info in enumerate(infos):
+            e, i = divmod(k, 5)
+            if not dones[k]:
+                assert info is wolfpack.vec_env.RUNNING_INFO and info.get("terminal_observation") is None
+                continue
+            ended_seen += 1
+            assert info is not wolfpack.vec_env.RUNNING_INFO and info["terminal_observation"].shape == (50,)
+            row = venv.step_infos
+            assert info["outcome"] == int(row["outcome"][e]) and info["outcome"] != 0
+            assert info["energy"] == float(row["energy"][e, i]) and info["collisions"] == int(row["collisions"][e, i])
+            assert info["outcome_name"] == wolfpack.OUTCOMES[info["outcome"]]
+    assert ended_seen >= 20, "every world ends within 30 steps"
+    with pytest.raises(TypeError):
+        wolfpack.vec_env.RUNNING_INFO["x"] = 1  # type: ignore[index]
+    # SB3's own wrapper copies a done slot's info before adding "episode" and leaves the rest.
+    monitored = VecMonitor(wolfpack.make_vec_env(num_envs=2, seed=0, **{"world.max_steps": 5}))
+    monitored.reset()
+    for _ in range(5):
+        _, _, dones, infos = monitored.step(np.zeros((10, 2), np.float32))
+    assert dones.all() and all(info["episode"]["l"] == 5 for info in infos)
+
+
 def test_envs_pickle_by_constructor_arguments():
     for env in (
         wolfpack.parallel_env(learners="targets", **{"world.wolves": 4}),

@@ -162,7 +162,7 @@ def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) 
     episode succeeded, a target: its own capture step; −1 until then), ``cornered_step`` (int:
     the first step at which a target of the world was cornered, −1 if none ever was; the same
     for every agent), ``energy`` (float, J), ``collisions`` (int, steps in contact),
-    ``distance`` (float, m; NaN for a wolf once no target is left)."""
+    ``distance`` (float, m; −1 for a wolf once no target is left)."""
     # Plain Python lists first (.tolist()): indexing numpy scalars one by one costs several
     # times more than the dicts themselves at 64 worlds x 5 wolves.
     codes = out["outcome"].tolist()

@@ -19,11 +19,18 @@ SB3 semantics, exactly: ``step`` returns fresh arrays; a world that finishes is 
 same step, its slots report ``done`` with ``infos[k]["terminal_observation"]`` (the last
 observation of the finished episode) and ``infos[k]["TimeLimit.truncated"]`` (True when the
 episode hit ``world.max_steps`` without terminating). A target captured while others still
-run (M > 1) keeps its slot with reward 0 until its world ends. Every ``infos[k]`` carries the
-ParallelEnv's numeric infos — ``outcome`` (int code, ``wolfpack.OUTCOMES``), ``capture_step``
-(−1 until a capture), ``cornered_step``, ``energy``, ``collisions``, ``distance`` — and, here
-only, ``outcome_name`` (the code's name, e.g. ``"captured"``): SB3 keeps infos as a list of
-dicts and never stacks them, so a string cannot trip it.
+run (M > 1) keeps its slot with reward 0 until its world ends.
+
+Infos cost nothing while episodes run: the slot of a running world gets
+:data:`RUNNING_INFO`, one shared, empty, read-only mapping (SB3 and its wrappers only read a
+running slot's info, with ``.get``; they copy a done slot's before adding to it). Building a
+dict per slot per step was half of this VecEnv's time at 64 worlds. The slots of a world that
+ended get a dict of their own with the finished episode's numeric infos — those of the
+ParallelEnv: ``outcome`` (int code, ``wolfpack.OUTCOMES``), ``capture_step``,
+``cornered_step``, ``energy``, ``collisions``, ``distance`` — plus ``outcome_name`` (the code's
+name, e.g. ``"captured"``), ``terminal_observation`` and ``TimeLimit.truncated``. The numeric
+infos of every slot at every step are in :attr:`WolfpackVecEnv.step_infos` (arrays, one row per
+world) and, after ``reset()``, in ``reset_infos`` (one dict per slot).
 
 ``seed(s)`` re-seeds world e with ``s + e`` at the next ``reset``; results never depend on
 ``threads``. ``get_attr``/``set_attr``/``env_method`` act on per-slot views that know their
@@ -34,6 +41,7 @@ world and agent (attributes ``world_index``, ``agent``, ``render_mode``; methods
 from __future__ import annotations
 
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -42,6 +50,14 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from wolfpack._checks import check_seed
 from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild
 from wolfpack.parallel_env import action_box, observation_box
+
+
+#: The info of every slot whose world is still running after a step: empty and read-only
+#: (``RUNNING_INFO["x"] = 1`` raises ``TypeError``), shared by all such slots.
+RUNNING_INFO: Mapping[str, Any] = MappingProxyType({})
+
+#: The BatchEnv outputs that make up the numeric infos.
+_INFO_KEYS = ("outcome", "capture_step", "cornered_step", "energy", "collisions", "distance", "terminated", "truncated")
 
 
 class _SlotView:
@@ -96,6 +112,12 @@ class WolfpackVecEnv(VecEnv):
         dim = {"wolves": self.batch.wolf_obs_dim, "targets": self.batch.target_obs_dim, "all": self._shared.dim if self._shared else 0}[learners]
         self._next_seed: int | None = seed
         self._actions: np.ndarray | None = None
+        #: The last step's (or reset's) numeric infos as the BatchEnv returns them, one row per
+        #: world: ``outcome`` [E], ``steps`` [E], ``capture_step`` / ``cornered_step`` [E, M],
+        #: ``energy`` / ``collisions`` / ``distance`` [E, N+M] (wolves, then targets),
+        #: ``terminated`` / ``truncated`` [E] (for a world that ended and was reset in this
+        #: step: its finished episode's values).
+        self.step_infos: dict[str, np.ndarray] = {}
         super().__init__(self.worlds * self.per_world, observation_box(dim), action_box())
 
     def __reduce__(self):
@@ -115,7 +137,8 @@ class WolfpackVecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         out = self.batch.reset(self._next_seed)
         self._next_seed = None
-        self.reset_infos = self._infos(out, final=False)
+        self.step_infos = {k: out[k] for k in (*_INFO_KEYS, "steps")}
+        self.reset_infos = self._slot_infos(out)
         return self._obs(out)
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -148,7 +171,8 @@ class WolfpackVecEnv(VecEnv):
             rewards = out[f"rewards_{self._side}"].reshape(-1).astype(np.float32, copy=False)
         done_world = out["terminated"] | out["truncated"]
         dones = np.repeat(done_world, self.per_world)
-        infos = self._infos(out, final=True)
+        self.step_infos = {k: out[k] for k in (*_INFO_KEYS, "steps")}
+        infos = self._step_infos(out, done_world)
         return obs, rewards, dones, infos
 
     def close(self) -> None:
@@ -192,20 +216,32 @@ class WolfpackVecEnv(VecEnv):
             return self._flat(self._shared.pack(out[f"{prefix}_wolves"], out[f"{prefix}_targets"]))
         return self._flat(out[f"{prefix}_{self._side}"])
 
-    def _infos(self, out: dict, final: bool) -> list[dict]:
+    def _slot_infos(self, out: Mapping[str, np.ndarray]) -> list[dict]:
+        """One numeric info dict (plus ``outcome_name``) per slot of the worlds in ``out``."""
         infos = agent_infos(out, self.batch.n_wolves, self._offset, self._offset + self.per_world)
         for info in infos:
             info["outcome_name"] = OUTCOMES[info["outcome"]]
-        if final:
-            done = out["terminated"] | out["truncated"]
-            if done.any():
-                final_obs = self._obs(out, "final_obs")
-                for e in np.flatnonzero(done).tolist():
-                    truncated = bool(out["truncated"][e] and not out["terminated"][e])
-                    for i in range(self.per_world):
-                        info = infos[e * self.per_world + i]
-                        info["terminal_observation"] = final_obs[e * self.per_world + i]
-                        info["TimeLimit.truncated"] = truncated
+        return infos
+
+    def _step_infos(self, out: dict, done_world: np.ndarray) -> list[Mapping[str, Any]]:
+        """SB3's per-slot infos of a step: :data:`RUNNING_INFO` for running worlds' slots, a
+        dict for each slot of a world that ended (see the module docstring)."""
+        infos: list[Mapping[str, Any]] = [RUNNING_INFO] * self.num_envs
+        ended = np.flatnonzero(done_world)
+        if ended.size == 0:
+            return infos
+        # Only the ended worlds' rows: the dicts are built for them alone.
+        rows = {k: out[k][ended] for k in _INFO_KEYS}
+        ended_infos = self._slot_infos(rows)
+        final_obs = self._obs(out, "final_obs")
+        per = self.per_world
+        for r, e in enumerate(ended.tolist()):
+            truncated = bool(rows["truncated"][r] and not rows["terminated"][r])
+            for i in range(per):
+                info = ended_infos[r * per + i]
+                info["terminal_observation"] = final_obs[e * per + i]
+                info["TimeLimit.truncated"] = truncated
+                infos[e * per + i] = info
         return infos
 
 

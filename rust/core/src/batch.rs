@@ -98,6 +98,10 @@ pub fn outcome_code(o: Outcome) -> u8 {
     }
 }
 
+/// Batches of fewer worlds step on the caller's thread whatever the thread count
+/// ([`BatchEnv::steps_inline`]).
+pub const INLINE_BELOW: usize = 8;
+
 /// Most worlds one batch may hold.
 pub const MAX_ENVS: usize = 1 << 17;
 
@@ -192,6 +196,21 @@ impl BatchEnv {
 
     fn run<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
         run_in(&self.pool, f)
+    }
+
+    /// Whether a step runs on the caller's thread: with one thread, and for batches too small
+    /// to share (waking the pool and handing work back costs ≈ 10–20 µs, a world's step with
+    /// observations ≈ 5–10 µs: below [`INLINE_BELOW`] worlds more threads only make it slower).
+    fn steps_inline(&self) -> bool {
+        self.inline || self.slots.len() < INLINE_BELOW
+    }
+
+    /// Worlds per parallel task: about four tasks per thread, so that rayon's splitting and
+    /// stealing cost little against the work, while a slow world (a spawn on autoreset) can
+    /// still be balanced out.
+    fn min_task_len(&self) -> usize {
+        let threads = self.pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+        (self.slots.len() / (4 * threads.max(1))).max(1)
     }
 
     pub fn params(&self) -> &Params {
@@ -302,10 +321,11 @@ impl BatchEnv {
             write_obs(s, o.obs_w, o.obs_t);
             write_infos(&s.world, &mut o);
         };
-        if self.inline {
+        if self.steps_inline() {
             self.slots.iter_mut().zip(outs).for_each(f);
         } else {
-            run_in(&self.pool, || self.slots.par_iter_mut().zip(outs).for_each(f));
+            let min_len = self.min_task_len();
+            run_in(&self.pool, || self.slots.par_iter_mut().zip(outs).with_min_len(min_len).for_each(f));
         }
         out
     }
@@ -421,10 +441,11 @@ impl BatchEnv {
                 other => other,
             })
         };
-        let results: Vec<Result<()>> = if self.inline {
+        let results: Vec<Result<()>> = if self.steps_inline() {
             self.slots.iter_mut().zip(outs).enumerate().map(f).collect()
         } else {
-            run_in(&self.pool, || self.slots.par_iter_mut().zip(outs).enumerate().map(f).collect())
+            let min_len = self.min_task_len();
+            run_in(&self.pool, || self.slots.par_iter_mut().zip(outs).enumerate().with_min_len(min_len).map(f).collect())
         };
         results.into_iter().collect::<Result<()>>()?;
         Ok(out)
