@@ -160,7 +160,9 @@ impl World {
 
     #[inline(never)]
     fn move_wolves(&mut self) {
-        let p = self.params.clone();
+        // A borrow, not an Arc clone: every world of a batch shares one Params, and its
+        // reference count is one cache line that threads stepping worlds would fight over.
+        let p = &*self.params;
         let b = &p.agents.body;
         let ts = p.world.ts;
         // The bodies the last step left are those of the current poses, unless someone moved a
@@ -241,7 +243,7 @@ impl World {
 
     #[inline(never)]
     fn move_targets(&mut self) {
-        let p = self.params.clone();
+        let p = &*self.params;
         let b = &p.agents.body;
         let ts = p.world.ts;
         let side = p.agents.target.side();
@@ -282,7 +284,7 @@ impl World {
     /// Step 4: collisions, captures, the episode's end.
     #[inline(never)]
     fn judge(&mut self) {
-        let p = self.params.clone();
+        let p = &*self.params;
         let n = self.n_wolves();
         let reach = p.agents.body.reach();
         let mut wolf_collided = false;
