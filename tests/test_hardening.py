@@ -622,3 +622,25 @@ def test_ctrl_c_stops_bench_and_replay_at_once(tmp_path):
     proc, seconds = _interrupt(["replay", episode, "--no-plots", "--out", tmp_path / "video"], _busy)
     _assert_interrupted(proc, seconds)
     assert not list((tmp_path / "video").iterdir())  # no partial episode.mp4, no temporary file
+
+
+def _episodes_in_child(queue) -> None:
+    queue.put(len(wolfpack.run_episodes(None, 3, 0, threads=2)))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="fork start method")
+def test_threaded_runs_work_in_a_forked_child_after_the_parent_used_its_pool():
+    """The core keeps one thread pool per thread count for repeated calls; a child forked
+    after the parent started one has none of its threads and must start its own, not hang."""
+    import multiprocessing as mp
+
+    assert len(wolfpack.run_episodes(None, 3, 0, threads=2)) == 3
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_episodes_in_child, args=(queue,))
+    child.start()
+    child.join(60)
+    if child.is_alive():
+        child.kill()
+        pytest.fail("run_episodes hung in a forked child")
+    assert child.exitcode == 0 and queue.get(timeout=5) == 3

@@ -1,8 +1,9 @@
 //! Whole episodes: run a world to its end, record the logs of SPEC §8, and run many episodes
 //! in parallel with results independent of the thread count (episode k uses seed `seed + k`).
 
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
@@ -200,10 +201,30 @@ pub fn run_episodes_until(params: &Params, seed: u64, first: u64, count: u64, la
     let work = || (first..first + count).into_par_iter().map(|k| run_prevalidated(&params, seed.wrapping_add(k), layout, record, stop)).collect::<Result<Vec<_>>>();
     match threads {
         None => work(),
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t.max(1))
-            .build()
-            .map_err(|e| Error::Invalid(format!("could not start {t} threads: {e}")))?
-            .install(work),
+        Some(t) => pool(t)?.install(work),
     }
+}
+
+/// A pool of `t` threads, started on first use and kept: `wolfpack hunt` calls the runner once
+/// per chunk of episodes, and starting the threads anew every time cost ≈ 0.1 ms per thread
+/// and call. At most one pool per thread count (≤ [`MAX_THREADS`] of them). The pools belong
+/// to the process that started them: a forked child (Python's multiprocessing) has none of
+/// their threads, so it starts its own instead of waiting forever on the parent's.
+fn pool(t: usize) -> Result<Arc<rayon::ThreadPool>> {
+    type Pools = (u32, BTreeMap<usize, Arc<rayon::ThreadPool>>);
+    static POOLS: Mutex<Pools> = Mutex::new((0, BTreeMap::new()));
+    let mut guard = POOLS.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let (owner, pools) = &mut *guard;
+    if *owner != std::process::id() {
+        // Inherited from the parent across a fork: their threads do not exist here. Forget
+        // them (dropping would signal threads that are not there).
+        std::mem::forget(std::mem::take(pools));
+        *owner = std::process::id();
+    }
+    if let Some(p) = pools.get(&t) {
+        return Ok(p.clone());
+    }
+    let p = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(t.max(1)).build().map_err(|e| Error::Invalid(format!("could not start {t} threads: {e}")))?);
+    pools.insert(t, p.clone());
+    Ok(p)
 }
