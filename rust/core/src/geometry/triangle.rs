@@ -19,6 +19,8 @@ pub fn body_triangle(p: Vec2, theta: f64, base: f64, height: f64) -> [Vec2; 3] {
 /// `sin_cos` per try. `BodyFrame::new(θ, b, h).at(p)` is `body_triangle(p, θ, b, h)` bit for bit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyFrame {
+    /// `unit(θ)`: kept, because the next step moves the agent along it.
+    pub fwd: Vec2,
     ahead: Vec2,
     half_base: Vec2,
 }
@@ -28,7 +30,7 @@ impl BodyFrame {
     pub fn new(theta: f64, base: f64, height: f64) -> Self {
         let fwd = unit(theta);
         let side = unit(theta + FRAC_PI_2);
-        Self { ahead: fwd * height, half_base: side * (0.5 * base) }
+        Self { fwd, ahead: fwd * height, half_base: side * (0.5 * base) }
     }
 
     /// `[apex, left corner, right corner]` at pose point `p`.

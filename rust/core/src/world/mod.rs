@@ -133,8 +133,8 @@ pub struct World {
     wolf_cmds: Vec<Command>,
     target_cmds: Vec<Command>,
     bodies: Vec<[Vec2; 3]>,
-    /// The wolf poses `bodies` were computed for.
-    body_poses: Vec<(Vec2, f64)>,
+    /// The wolf poses `bodies` were computed for, with `unit(θ)` of each.
+    body_poses: Vec<(Vec2, f64, Vec2)>,
     scratch_row: Vec<u8>,
     /// This step's obstacles near each agent ([`Neighbours`]), built once after the obstacles
     /// move and shared by the laws, the feasibility filter and the judge.

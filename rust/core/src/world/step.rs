@@ -168,12 +168,15 @@ impl World {
         // The bodies the last step left are those of the current poses, unless someone moved a
         // wolf in between (tests, layouts): reuse them when the poses are the same.
         let n = self.wolves.len();
-        let current = self.bodies.len() == n && self.body_poses.iter().zip(&self.wolves).all(|(q, w)| *q == (w.pos, w.theta));
+        let current = self.bodies.len() == n && self.body_poses.iter().zip(&self.wolves).all(|(q, w)| (q.0, q.1) == (w.pos, w.theta));
         if !current {
             self.bodies.clear();
-            self.bodies.extend(self.wolves.iter().map(|w| body_triangle(w.pos, w.theta, b.base, b.height)));
             self.body_poses.clear();
-            self.body_poses.extend(self.wolves.iter().map(|w| (w.pos, w.theta)));
+            for w in &self.wolves {
+                let frame = BodyFrame::new(w.theta, b.base, b.height);
+                self.bodies.push(frame.at(w.pos));
+                self.body_poses.push((w.pos, w.theta, frame.fwd));
+            }
         }
         for i in 0..n {
             let cmd = clamp(self.wolf_cmds[i], &p.agents.wolf);
@@ -181,9 +184,10 @@ impl World {
             let mut theta = wrap(w.theta + cmd.omega * ts);
             let mut omega = cmd.omega;
             let mut v = cmd.v;
-            // One sin_cos for the direction of travel and two for the new body, whatever the
-            // number of halvings (the same values, bit for bit, as computing them per try).
-            let dir = unit(w.theta);
+            // The direction of travel is the last step's `unit(θ)` (kept with the body), and
+            // the new body takes two sin_cos whatever the number of halvings: the same values,
+            // bit for bit, as computing them per try.
+            let dir = self.body_poses[i].2;
             let mut frame = BodyFrame::new(theta, b.base, b.height);
             if p.world.feasibility_filter {
                 // SPEC §1.5: a move feasible as commanded is made as commanded, however small
@@ -221,7 +225,7 @@ impl World {
             let mass = p.agents.wolf.mass;
             self.wolves[i] = AgentState { pos, theta, v, omega, energy: w.energy + 0.5 * mass * v * v };
             self.bodies[i] = frame.at(pos);
-            self.body_poses[i] = (pos, theta);
+            self.body_poses[i] = (pos, theta, frame.fwd);
         }
     }
 
