@@ -40,8 +40,13 @@ fn rollout(params: &Params, e: usize, seed: u64, threads: usize, learners: Learn
 fn thread_count_does_not_change_a_single_bit() {
     let p = Params::default();
     for learners in [Learners::Wolves, Learners::Targets, Learners::All] {
-        // 700 steps: every world finishes and autoresets at least twice.
+        // 700 steps: every world finishes and autoresets at least twice. 6 worlds step on the
+        // caller's thread whatever the thread count (batch::INLINE_BELOW); 37 are shared out in
+        // uneven chunks between the caller and 1 or 2 workers.
         assert_eq!(rollout(&p, 6, 3, 1, learners, 700), rollout(&p, 6, 3, 2, learners, 700), "{learners:?}");
+        let one = rollout(&p, 37, 3, 1, learners, 700);
+        assert_eq!(one, rollout(&p, 37, 3, 2, learners, 700), "{learners:?}, 2 threads");
+        assert_eq!(one, rollout(&p, 37, 3, 3, learners, 700), "{learners:?}, 3 threads");
     }
 }
 
