@@ -36,7 +36,7 @@ Once per run (no batch size):
 Steps per measurement are sized during the warm-up so that each takes about ``--seconds``
 (default 1.5 s; fewer steps at large E). Usage::
 
-    python benchmarks/peers.py                 # full run (~6 min on 2 cores), tables on stdout
+    python benchmarks/peers.py                 # full run (~5 min on 2 cores), tables on stdout
     python benchmarks/peers.py --json          # the same as one JSON object on stdout
     python benchmarks/peers.py --quick         # smoke run (E = 1, 64; short measurements)
     python benchmarks/peers.py --make-venv     # build .venv-peers first if missing
@@ -121,6 +121,58 @@ def loadavg() -> list[float] | None:
         return None
 
 
+def wolfpack_source() -> dict:
+    """Which wolfpack was measured: its package folder, the extension's build time, and the git
+    commit of the checkout it sits in (None outside one; ``dirty`` when the tree has changes)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("wolfpack")
+    if spec is None or not spec.origin:
+        return {}
+    pkg = Path(spec.origin).parent
+    out: dict[str, Any] = {"package": str(pkg)}
+    cores = sorted(pkg.glob("_core*.so")) + sorted(pkg.glob("_core*.pyd"))
+    if cores:
+        out["extension_built"] = datetime.datetime.fromtimestamp(cores[0].stat().st_mtime).astimezone().isoformat(timespec="seconds")
+    try:
+        git = lambda *a: subprocess.run(["git", "-C", str(pkg), *a], capture_output=True, text=True, timeout=10)  # noqa: E731
+        head = git("rev-parse", "--short", "HEAD")
+        if head.returncode == 0:
+            out["commit"] = head.stdout.strip()
+            out["dirty"] = bool(git("status", "--porcelain", "--untracked-files=no").stdout.strip())
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return out
+
+
+def cpu_ticks(pids: list[int]) -> tuple[int, int] | None:
+    """(busy ticks of the whole machine, ticks of ``pids`` and their threads) from /proc, for the
+    share of the CPUs that other processes took during a round; None where /proc is missing."""
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            fields = [int(x) for x in f.readline().split()[1:]]
+        busy = sum(fields[:8]) - fields[3] - fields[4]  # all but idle and iowait (guest is in user)
+        own = 0
+        for pid in pids:
+            try:
+                with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+                    rest = f.read().rsplit(")", 1)[1].split()
+                own += int(rest[11]) + int(rest[12])  # utime, stime (fields 14, 15)
+            except (OSError, IndexError, ValueError):
+                pass
+        return busy, own
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def others_share(before: tuple[int, int] | None, after: tuple[int, int] | None, seconds: float) -> float | None:
+    """Cores' worth of CPU that processes other than this benchmark used, averaged over a round."""
+    if before is None or after is None or seconds <= 0:
+        return None
+    hz = os.sysconf("SC_CLK_TCK")
+    return round(max(0.0, ((after[0] - before[0]) - (after[1] - before[1])) / hz / seconds), 2)
+
+
 def machine_info() -> dict:
     return {
         "cpu": cpu_model(),
@@ -128,6 +180,7 @@ def machine_info() -> dict:
         "os": platform.platform(),
         "python": platform.python_version(),
         "load_average": loadavg(),
+        "wolfpack_source": wolfpack_source(),
         "packages": {
             p: version(p) for p in ("wolfpack", "numpy", "mpe2", "pettingzoo", "gymnasium", "stable_baselines3", "vmas", "torch")
         },
@@ -592,9 +645,14 @@ def tables(report: dict) -> str:
     tmax = max(threads)
     out = [
         f"date: {report['date']}; command: {report['command']}",
+        *([f"note: {report['note']}"] if report.get("note") else []),
         f"machine: {m['cpu']}, {m['cores']} cores, {m['os']}, Python {m['python']}",
         "packages: " + ", ".join(f"{k} {v}" for k, v in m["packages"].items() if v),
     ]
+    src = m.get("wolfpack_source") or {}
+    if src:
+        where = f"commit {src['commit']}{' + uncommitted changes' if src.get('dirty') else ''}" if src.get("commit") else "not in a git checkout"
+        out.append(f"wolfpack from {src['package']} ({where}; extension built {src.get('extension_built', '?')})")
     pv = report.get("peers_venv") or {}
     by_exe: dict[str, tuple[list[str], dict]] = {}
     for peer, v in pv.get("versions", {}).items():
@@ -605,8 +663,11 @@ def tables(report: dict) -> str:
     out += [
         f"scenario: {COUNTS['wolves']} pursuers, {COUNTS['targets']} evader, {COUNTS['obstacles']} obstacles; "
         f"{report['repeats']} interleaved rounds, median; ~{report['target_seconds']} s per measurement",
-        "load average (1, 5, 15 min) per round: "
-        + "; ".join(f"{r['round']}: {r['load_before']} -> {r['load_after']} ({r['seconds']:.0f} s)" for r in report["rounds"]),
+        f"load average (1, 5, 15 min) at the start: {m['load_average']}, at the end: {m.get('load_average_after')}",
+        "per round, load before -> after (it counts this benchmark, 1-2 on 2 cores), and the cores other processes used: "
+        + "; ".join(
+            f"{r['round']}: {r['load_before']} -> {r['load_after']}, others {r['others_cores']} ({r['seconds']:.0f} s)" for r in report["rounds"]
+        ),
         "",
         "env-steps/s by batch size E (an env-step = one world advanced one step):",
         "",
@@ -694,7 +755,7 @@ SKIPPABLE = ("scripted", "batch", "vec", "mpe2", "vmas", "jaxmarl", "jaxmarl_loo
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--quick", action="store_true", help="smoke run: E = 1,64, short measurements, one round")
+    ap.add_argument("--quick", action="store_true", help="smoke run: E = 1,64 (VMAS, JaxMARL at the first only), short measurements, one round")
     ap.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     ap.add_argument("--sizes", default=None, help=f"batch sizes E, comma list (default {DEFAULT_SIZES}; quick 1,64)")
     ap.add_argument("--threads", default="1,2", help="wolfpack batch threads, comma list (default 1,2)")
@@ -706,6 +767,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--skip", default="", help=f"comma list of contenders to skip: {','.join(SKIPPABLE)}")
     ap.add_argument("--make-venv", action="store_true", help="build .venv-peers (benchmarks/peers_venv.sh) first if it is missing")
     ap.add_argument("--peers-python", default=None, help="python of the peers venv (default .venv-peers/bin/python)")
+    ap.add_argument("--note", default=None, help="a line kept in the report (e.g. which build of wolfpack this is)")
     args = ap.parse_args(argv)
 
     sizes = parse_ints(args.sizes or ("1,64" if args.quick else DEFAULT_SIZES), "--sizes")
@@ -723,7 +785,12 @@ def main(argv: list[str] | None = None) -> int:
 
     report: dict[str, Any] = {
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-        "command": " ".join(["python", os.path.relpath(__file__)] + (sys.argv[1:] if argv is None else list(argv))),
+        "command": " ".join(
+            ([f"PYTHONPATH={os.environ['PYTHONPATH']}"] if os.environ.get("PYTHONPATH") else [])
+            + ["python", os.path.relpath(__file__, ROOT)]
+            + (sys.argv[1:] if argv is None else list(argv))
+        ),
+        "note": args.note,
         "machine": machine_info(),
         "quick": args.quick,
         "counts": COUNTS,
@@ -759,10 +826,13 @@ def main(argv: list[str] | None = None) -> int:
             if ("vec" if vec else "batch") in skip:
                 continue
             per_size += [Batch(vec, E, t, target_s) for t in threads]
-        if "vmas" not in skip:
+        # --quick: the peer workers at the smallest E only (their start and JAX's compiles are
+        # most of a quick run's time; one size exercises the whole path).
+        peers_here = not args.quick or E == sizes[0]
+        if "vmas" not in skip and peers_here:
             per_size.append(Remote(workers.get("vmas"), "vmas", E, target_s, args.vmas_steps, why_not.get("vmas")))
         for kind in ("jaxmarl_loop", "jaxmarl_scan"):
-            if kind not in skip:
+            if kind not in skip and peers_here:
                 # --quick: a fixed, short scan (one compile instead of the sizing probes').
                 fixed = 16 if (kind == "jaxmarl_scan" and args.quick) else None
                 per_size.append(Remote(workers.get("jaxmarl"), kind, E, target_s, fixed, why_not.get("jaxmarl")))
@@ -791,7 +861,8 @@ def main(argv: list[str] | None = None) -> int:
     shift = max(1, math.ceil(len(live) / max(repeats, 1)))
     for r in range(repeats):
         order = live[(r * shift) % len(live):] + live[: (r * shift) % len(live)] if live else []
-        before, t0 = loadavg(), time.perf_counter()
+        pids = [os.getpid()] + [w.proc.pid for w in workers.values()]
+        before, ticks, t0 = loadavg(), cpu_ticks(pids), time.perf_counter()
         note(f"[round {r + 1}/{repeats}] {len(order)} measurements, load {before}")
         for c in order:
             if c.skipped is not None:
@@ -803,7 +874,16 @@ def main(argv: list[str] | None = None) -> int:
                     raise
                 c.skipped = f"failed: {type(e).__name__}: {e}"
                 note(f"[{c.key}] skipped: {c.skipped}")
-        rounds.append({"round": r + 1, "load_before": before, "load_after": loadavg(), "seconds": time.perf_counter() - t0})
+        secs = time.perf_counter() - t0
+        rounds.append({
+            "round": r + 1,
+            "load_before": before,
+            "load_after": loadavg(),
+            "seconds": secs,
+            # CPU used by every other process on the machine during the round, in cores (0 = the
+            # benchmark had the machine to itself; the load average counts the benchmark too).
+            "others_cores": others_share(ticks, cpu_ticks(pids), secs),
+        })
     report["rounds"] = rounds
     for c in contenders:
         c.close()
