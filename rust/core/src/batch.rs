@@ -11,7 +11,7 @@
 //!   in `final_obs_*`, and the finished episode's infos.
 //! - Every step returns fresh output vectors (the binding hands them to numpy without copying).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
@@ -101,6 +101,9 @@ pub fn outcome_code(o: Outcome) -> u8 {
 /// Batches of fewer worlds step on the caller's thread whatever the thread count
 /// ([`BatchEnv::steps_inline`]).
 pub const INLINE_BELOW: usize = 8;
+
+/// Most worlds in one task of a shared step ([`BatchEnv::chunk`]).
+const MAX_CHUNK: usize = 16;
 
 /// Most worlds one batch may hold.
 pub const MAX_ENVS: usize = 1 << 17;
@@ -214,11 +217,12 @@ impl BatchEnv {
         self.threads.unwrap_or_else(rayon::current_num_threads).max(1)
     }
 
-    /// Worlds per task of [`share`]: about four tasks per thread, so that handing out tasks
-    /// costs little against the work, while a slow world (a spawn on autoreset) can still be
-    /// balanced out.
+    /// Worlds per task of [`share`]: at least four tasks per thread, and at most
+    /// [`MAX_CHUNK`] worlds (≈ 0.1 ms) each, so that the threads finish within a fraction of
+    /// a task of each other (with E/8 worlds per task at E = 1024 one thread idled ≈ 1 ms per
+    /// step waiting for the other's last task); taking a task from the queue costs ≈ 0.1 µs.
     fn chunk(&self) -> usize {
-        (self.slots.len() / (4 * self.participants())).max(1)
+        (self.slots.len() / (4 * self.participants())).clamp(1, MAX_CHUNK)
     }
 
     pub fn params(&self) -> &Params {
@@ -529,22 +533,36 @@ fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize
         done.lock().unwrap_or_else(|p| p.into_inner()).push((start, out));
     };
     let extra = participants.saturating_sub(1);
-    let drain = &drain;
+    let (drain, finished) = (&drain, &AtomicUsize::new(0));
     match pool {
-        Some(p) => p.in_place_scope(|s| spawn_and_drain(s, extra, drain)),
-        None => rayon::in_place_scope(|s| spawn_and_drain(s, extra, drain)),
+        Some(p) => p.in_place_scope(|s| spawn_and_drain(s, extra, drain, finished)),
+        None => rayon::in_place_scope(|s| spawn_and_drain(s, extra, drain, finished)),
     }
     let mut done = done.into_inner().unwrap_or_else(|p| p.into_inner());
     done.sort_unstable_by_key(|(start, _)| *start);
     done.into_iter().flat_map(|(_, out)| out).collect()
 }
 
-/// [`share`]'s scope: `extra` jobs and the calling thread drain the same queue.
-fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, drain: &'s F) {
+/// [`share`]'s scope: `extra` jobs and the calling thread drain the same queue. The caller then
+/// spins until every job has finished instead of going to sleep in the scope's wait: being
+/// woken again by the last worker costs tens of µs on a VM, as much as a few worlds' step.
+fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, drain: &'s F, finished: &'s AtomicUsize) {
     for _ in 0..extra {
-        s.spawn(move |_| drain());
+        s.spawn(move |_| {
+            drain();
+            finished.fetch_add(1, Ordering::Release);
+        });
     }
     drain();
+    let mut spins = 0u32;
+    while finished.load(Ordering::Acquire) < extra {
+        spins += 1;
+        if spins < 1 << 14 {
+            std::hint::spin_loop();
+        } else {
+            std::thread::yield_now();
+        }
+    }
 }
 
 /// Runs `f` on the batch's own pool, or on rayon's global pool.
