@@ -147,9 +147,8 @@ class WolfpackVecEnv(VecEnv):
             raise ValueError(f"actions must be floating point, got dtype {a.dtype}")
         if a.shape != (self.num_envs, 2):
             raise ValueError(f"actions: expected shape ({self.num_envs}, 2), got {a.shape}")
-        bad = ~np.isfinite(a).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
+        if not np.isfinite(a).all():  # one reduction on the fast path; details only on failure
+            k = int(np.argmax(~np.isfinite(a).all(axis=1)))
             raise ValueError(f"action of slot {k} ({self._views[k].agent} in world {self._views[k].world_index}) is not finite: {a[k].tolist()}")
         self._actions = a.reshape(self.worlds, self.per_world, 2)
 
