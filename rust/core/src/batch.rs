@@ -14,8 +14,6 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use rayon::prelude::*;
-
 use crate::config::{ActionMode, Params};
 use crate::error::{Error, Result};
 use crate::math::{unit, wrap, Vec2};
@@ -196,13 +194,9 @@ impl BatchEnv {
         let params = Arc::new(params);
         let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, threads, inline: threads == Some(1), track_laws: false };
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
-        let worlds: Vec<Result<Slot>> = if env.inline { (0..num_envs).map(g).collect() } else { env.run(|| (0..num_envs).into_par_iter().map(g).collect()) };
+        let worlds: Vec<Result<Slot>> = if env.inline { (0..num_envs).map(g).collect() } else { share(env.pool.as_ref(), env.participants(), (0..num_envs).collect(), MAX_CHUNK, g) };
         env.slots = worlds.into_iter().collect::<Result<_>>()?;
         Ok(env)
-    }
-
-    fn run<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
-        run_in(&self.pool, f)
     }
 
     /// Whether a step runs on the caller's thread: with one thread, and for batches too small
@@ -291,7 +285,7 @@ impl BatchEnv {
             };
             env_slot(&params, sd, ep, None)
         };
-        let fresh: Vec<Result<Slot>> = if self.inline { self.slots.iter().enumerate().map(g).collect() } else { self.run(|| self.slots.par_iter().enumerate().map(g).collect()) };
+        let fresh: Vec<Result<Slot>> = if self.inline { self.slots.iter().enumerate().map(g).collect() } else { share(self.pool.as_ref(), self.participants(), self.slots.iter().enumerate().collect(), MAX_CHUNK, g) };
         self.slots = fresh.into_iter().collect::<Result<_>>()?;
         for s in &mut self.slots {
             s.world.track_laws = track;
@@ -496,7 +490,7 @@ impl BatchEnv {
             }
             (aw, at)
         };
-        let per: Vec<(Vec<f32>, Vec<f32>)> = if self.inline { self.slots.iter().map(f).collect() } else { self.run(|| self.slots.par_iter().map(f).collect()) };
+        let per: Vec<(Vec<f32>, Vec<f32>)> = if self.inline { self.slots.iter().map(f).collect() } else { share(self.pool.as_ref(), self.participants(), self.slots.iter().collect(), self.chunk(), f) };
         let mut aw = Vec::with_capacity(self.slots.len() * n * 2);
         let mut at = Vec::with_capacity(self.slots.len() * m * 2);
         for (w, t) in per {
@@ -562,14 +556,6 @@ fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, 
         } else {
             std::thread::yield_now();
         }
-    }
-}
-
-/// Runs `f` on the batch's own pool, or on rayon's global pool.
-fn run_in<R: Send>(pool: &Option<rayon::ThreadPool>, f: impl FnOnce() -> R + Send) -> R {
-    match pool {
-        Some(p) => p.install(f),
-        None => f(),
     }
 }
 

@@ -184,8 +184,8 @@ fn write_relative(me: &AgentState, (s, c): (f64, f64), other: &AgentState, (so, 
 /// Lidar rays into `out` (its length is the ray count); returns that count.
 ///
 /// Each obstacle is tested only against the rays inside the angular window of its bounding
-/// disc, and only where it could still beat the ray's nearest hit so far: the exact casts
-/// (parry) run a few times per agent instead of rays × obstacles times.
+/// disc, and only where it could still beat the ray's nearest hit so far: the exact
+/// casts run a few times per agent instead of rays × obstacles times.
 #[inline(never)]
 fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -> usize {
     let rays = out.len();
