@@ -548,6 +548,12 @@ fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, 
         });
     }
     drain();
+    // Only a thread outside every rayon pool may spin: a pool's own thread (a caller stepping
+    // batches inside a parallel iterator) must let the scope's wait run the jobs still queued
+    // on it, or it would wait for itself.
+    if rayon::current_thread_index().is_some() {
+        return;
+    }
     let mut spins = 0u32;
     while finished.load(Ordering::Acquire) < extra {
         spins += 1;

@@ -162,3 +162,27 @@ fn expert_in_unicycle_mode_tracks_the_scripted_trajectory_closely() {
         }
     }
 }
+
+/// 60 steps of a 24-world batch on rayon's global pool (threads = None), both sides scripted:
+/// every step's energies.
+fn global_pool_energies(seed: u64) -> Vec<Vec<f64>> {
+    let mut env = BatchEnv::new(Params::default(), 24, Learners::None, seed, true, None).unwrap();
+    (0..60).map(|_| env.step(&[], &[]).unwrap().energy).collect()
+}
+
+/// Batches stepped from inside rayon's global pool (their workers are that same pool) finish
+/// and give the results of stepping them one by one.
+#[test]
+fn batches_stepped_inside_the_global_pool_do_not_wait_for_themselves() {
+    use rayon::prelude::*;
+    let (tx, rx) = std::sync::mpsc::channel();
+    let inside = std::thread::spawn(move || {
+        let out: Vec<_> = (0..4u64).into_par_iter().map(|s| global_pool_energies(100 * s)).collect();
+        tx.send(out).unwrap();
+    });
+    // A worker spinning for a job queued on itself never returns: fail instead of hanging.
+    let got = rx.recv_timeout(std::time::Duration::from_secs(120)).expect("batches stepped inside the global pool did not finish in 120 s");
+    inside.join().unwrap();
+    let outside: Vec<_> = (0..4u64).map(|s| global_pool_energies(100 * s)).collect();
+    assert_eq!(got, outside);
+}
