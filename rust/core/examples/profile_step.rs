@@ -10,7 +10,7 @@
 //!
 //! - `hunt N`: the scripted episodes of seeds 0..N of the documented scenario, as
 //!   `wolfpack hunt` runs them (spawn included, no recording).
-//! - `batch N`: N steps of a 64-world `BatchEnv` with the wolves learning (zero actions) and
+//! - `batch N [E]`: N steps of an E-world (default 64) `BatchEnv` with the wolves learning (zero actions) and
 //!   their observations written, autoreset on: the learning interface's work per step.
 //!
 //! Prints the env-steps done, so the per-step figures can be read off the totals.
@@ -31,7 +31,7 @@ fn main() {
             println!("hunt: {n} episodes, {steps} env-steps");
         }
         "batch" => {
-            let e = 64;
+            let e: usize = args.next().map(|s| s.parse().expect("E: an integer")).unwrap_or(64);
             let mut b = BatchEnv::new(Params::default(), e, Learners::Wolves, 0, true, Some(1)).expect("batch");
             let actions = vec![0f32; e * b.n_wolves() * 2];
             for _ in 0..n {
