@@ -24,8 +24,8 @@ run (M > 1) keeps its slot with reward 0 until its world ends.
 Infos cost nothing while episodes run: the slot of a running world gets
 :data:`RUNNING_INFO`, one shared, empty, read-only mapping (SB3 and its wrappers only read a
 running slot's info, with ``.get``; they copy a done slot's before adding to it). Building a
-dict per slot per step was half of this VecEnv's time at 64 worlds. The slots of a world that
-ended get a dict of their own with the finished episode's numeric infos — those of the
+dict per slot per step was up to half of this VecEnv's time (at 1,024 worlds). The slots of a
+world that ended get a dict of their own with the finished episode's numeric infos — those of the
 ParallelEnv: ``outcome`` (int code, ``wolfpack.OUTCOMES``), ``capture_step``,
 ``cornered_step``, ``energy``, ``collisions``, ``distance`` — plus ``outcome_name`` (the code's
 name, e.g. ``"captured"``), ``terminal_observation`` and ``TimeLimit.truncated``. The numeric
