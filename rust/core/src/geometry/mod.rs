@@ -7,7 +7,7 @@
 mod polygon;
 mod triangle;
 
-pub use polygon::{polygon_closest_point, polygon_contains, polygon_visible_extent, segment_disc_clip};
+pub use polygon::{edges, polygon_closest_point, polygon_contains, polygon_visible_extent, segment_disc_clip};
 pub use triangle::{body_triangle, BodyFrame, segments_intersect, triangle_contains, triangle_overlaps_circle, triangle_overlaps_polygon, triangles_overlap};
 
 /// An angular interval seen from a point: centre direction ψ, half-width Δ, and the surface

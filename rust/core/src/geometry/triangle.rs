@@ -94,9 +94,7 @@ pub fn triangle_overlaps_circle(t: &[Vec2; 3], center: Vec2, radius: f64) -> boo
 
 /// A triangle and a simple polygon (vertices in order, either winding) share a point.
 pub fn triangle_overlaps_polygon(t: &[Vec2; 3], poly: &[Vec2]) -> bool {
-    let n = poly.len();
-    for j in 0..n {
-        let (c, d) = (poly[j], poly[(j + 1) % n]);
+    for (c, d) in super::polygon::edges(poly) {
         for i in 0..3 {
             if segments_intersect(t[i], t[(i + 1) % 3], c, d) {
                 return true;

@@ -30,7 +30,7 @@ use pathfinding::kuhn_munkres::kuhn_munkres_min;
 use pathfinding::matrix::Matrix;
 
 use super::{Snapshot, WolfMemory};
-use crate::geometry::polygon_closest_point;
+use crate::geometry::{edges, polygon_closest_point};
 use crate::math::{angle_of, cross, Point2, Vec2};
 use crate::world::Obstacle;
 
@@ -90,8 +90,7 @@ impl HalfPlane {
 /// A convex polygon clipped by a half-plane (Sutherland–Hodgman, one plane).
 pub fn clip(poly: &[Vec2], h: &HalfPlane) -> Vec<Vec2> {
     let mut out = Vec::with_capacity(poly.len() + 1);
-    for k in 0..poly.len() {
-        let (p, q) = (poly[k], poly[(k + 1) % poly.len()]);
+    for (p, q) in edges(poly) {
         let (fp, fq) = (h.a.dot(&p) - h.b, h.a.dot(&q) - h.b);
         if fp <= 0.0 {
             out.push(p);
@@ -113,7 +112,7 @@ fn hull_closest_point(ob: &Obstacle, p: Vec2) -> (Vec2, bool) {
     }
     let points: Vec<Point2> = ob.vertices.iter().map(|v| Point2::new(v.x, v.y)).collect();
     let hull: Vec<Vec2> = parry2d_f64::transformation::convex_hull(&points).iter().map(|q| Vec2::new(q.x, q.y)).collect();
-    let inside = hull.len() >= 3 && (0..hull.len()).all(|k| cross(hull[(k + 1) % hull.len()] - hull[k], p - hull[k]) >= 0.0);
+    let inside = hull.len() >= 3 && edges(&hull).all(|(a, b)| cross(b - a, p - a) >= 0.0);
     let best = closest_on_boundary(&hull, p).0;
     (best, inside)
 }
@@ -133,8 +132,7 @@ pub enum GoalCase {
 /// (λ ∈ (0, 1)) or a vertex.
 fn closest_on_boundary(poly: &[Vec2], q: Vec2) -> (Vec2, GoalCase) {
     let mut best = (poly.first().copied().unwrap_or(q), GoalCase::Vertex, f64::INFINITY);
-    for k in 0..poly.len() {
-        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+    for (a, b) in edges(poly) {
         let ab = b - a;
         let len2 = ab.norm_squared();
         let lambda = if len2 > 0.0 { (q - a).dot(&ab) / len2 } else { 0.0 };
@@ -156,7 +154,7 @@ fn closest_on_boundary(poly: &[Vec2], q: Vec2) -> (Vec2, GoalCase) {
 /// The point of convex polygon `cell` (counter-clockwise) closest to `q`: `q` itself when
 /// inside, else on an edge or at a vertex (source steps ①–⑤).
 pub fn closest_point(cell: &[Vec2], q: Vec2) -> (Vec2, GoalCase) {
-    let inside = cell.len() >= 3 && (0..cell.len()).all(|k| cross(cell[(k + 1) % cell.len()] - cell[k], q - cell[k]) >= -1e-12);
+    let inside = cell.len() >= 3 && edges(cell).all(|(a, b)| cross(b - a, q - a) >= -1e-12);
     if inside {
         return (q, GoalCase::Inside);
     }
