@@ -25,8 +25,6 @@
 //! formulas a tenth of that. The tests check them against parry's `Ball`, `Segment` and `Aabb`
 //! casts, which stay the reference.
 
-use arrayvec::ArrayVec;
-
 use crate::config::Params;
 use crate::math::{cross, unit, Vec2};
 use crate::world::{AgentState, Obstacle, World};
@@ -197,24 +195,22 @@ fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -
     let step = std::f64::consts::TAU / rays as f64;
     // Per ray: its direction and the nearest hit so far (metres), starting with the walls.
     // Ray k+1 is ray k turned by `step`: two sin/cos per agent instead of one per ray. On the
-    // stack, uninitialised beyond the rays, for up to 64 rays (zeroing fixed 64-slot arrays
-    // was 1.5 KB of memset per agent).
-    let (s, c) = step.sin_cos();
-    let mut d = unit(me.theta);
-    let mut next = || {
-        let here = d;
-        d = Vec2::new(c * d.x - s * d.y, s * d.x + c * d.y);
-        (here, ray_walls(origin, here, &p.world.border).min(range))
-    };
-    let mut small: ArrayVec<(Vec2, f64), 64> = ArrayVec::new();
+    // stack for up to 64 rays. (A plain array and loop: filling an ArrayVec through `extend`
+    // did not always inline and cost twice the arithmetic.)
+    let mut small = [(Vec2::zeros(), 0.0f64); 64];
     let mut big: Vec<(Vec2, f64)>;
-    let rays_now: &mut [(Vec2, f64)] = if rays <= small.capacity() {
-        small.extend((0..rays).map(|_| next()));
-        &mut small
+    let rays_now: &mut [(Vec2, f64)] = if rays <= small.len() {
+        &mut small[..rays]
     } else {
-        big = (0..rays).map(|_| next()).collect();
+        big = vec![(Vec2::zeros(), 0.0); rays];
         &mut big
     };
+    let (s, c) = step.sin_cos();
+    let mut d = unit(me.theta);
+    for slot in rays_now.iter_mut() {
+        *slot = (d, ray_walls(origin, d, &p.world.border).min(range));
+        d = Vec2::new(c * d.x - s * d.y, s * d.x + c * d.y);
+    }
     for ob in obstacles {
         let to = ob.center - me.pos;
         let dc = to.norm();
