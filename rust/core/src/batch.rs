@@ -543,8 +543,10 @@ fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize
 fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, drain: &'s F, finished: &'s AtomicUsize) {
     for _ in 0..extra {
         s.spawn(move |_| {
+            // Counted when the job ends, however it ends: a job that panicked must not leave
+            // the caller spinning (the scope then hands the panic on to the caller).
+            let _counted = CountOnDrop(finished);
             drain();
-            finished.fetch_add(1, Ordering::Release);
         });
     }
     drain();
@@ -562,6 +564,15 @@ fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, 
         } else {
             std::thread::yield_now();
         }
+    }
+}
+
+/// Adds one to the counter when dropped, on return and on unwinding alike.
+struct CountOnDrop<'a>(&'a AtomicUsize);
+
+impl Drop for CountOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_add(1, Ordering::Release);
     }
 }
 
@@ -691,5 +702,42 @@ pub fn encode(mode: ActionMode, theta: f64, v_d: f64, theta_d: f64, v_max: f64, 
             let a = unit(theta_d - theta) * r;
             [a.x as f32, a.y as f32]
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn share_maps_in_item_order_whatever_the_threads_and_chunks() {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let want: Vec<usize> = (0..1000).map(|k| 3 * k).collect();
+        for (participants, chunk) in [(1, 1), (2, 7), (3, 16), (3, 1000)] {
+            assert_eq!(share(Some(&pool), participants, (0..1000).collect(), chunk, |k: usize| 3 * k), want, "{participants} threads, chunk {chunk}");
+        }
+        assert_eq!(share(None, 2, (0..10).collect(), 3, |k: usize| k), (0..10).collect::<Vec<_>>());
+    }
+
+    /// A task that panics on a worker reaches the caller as a panic (the binding turns it
+    /// into an exception) instead of leaving the caller waiting for that worker forever.
+    #[test]
+    fn a_panic_on_a_worker_is_handed_on_not_waited_for() {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            let work = |k: usize| {
+                std::thread::sleep(Duration::from_millis(1)); // long enough for the worker to take tasks
+                if rayon::current_thread_index().is_some() {
+                    panic!("task {k} on the worker");
+                }
+                k
+            };
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| share(Some(&pool), 2, (0..64).collect(), 1, work)));
+            tx.send(r.is_err()).unwrap();
+        });
+        let panicked = rx.recv_timeout(Duration::from_secs(60)).expect("share still waiting 60 s after a worker's task panicked");
+        assert!(panicked, "the worker's panic was not handed on");
     }
 }
