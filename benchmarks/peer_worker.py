@@ -56,7 +56,8 @@ os.dup2(2, 1)
 sys.stdout = sys.stderr
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
-COUNTS = {"wolves": 5, "targets": 1, "obstacles": 12}
+from peer_scenarios import COUNTS, vmas_simple_tag  # noqa: E402 (after the stdout redirect)
+
 POOL = 16  # pre-drawn action batches, cycled through
 
 
@@ -231,24 +232,11 @@ class JaxScan(JaxBase):
 class Vmas:
     def __init__(self, num_envs: int, seed: int = 0) -> None:
         import torch
-        import vmas
 
         self.torch = torch
         self.E = num_envs
         t0 = time.perf_counter()
-        self.env = env = vmas.make_env(
-            scenario="simple_tag",
-            num_envs=num_envs,
-            device="cpu",
-            continuous_actions=True,
-            seed=seed,
-            max_steps=None,
-            num_good_agents=COUNTS["targets"],
-            num_adversaries=COUNTS["wolves"],
-            num_landmarks=COUNTS["obstacles"],
-        )
-        env.reset()
-        torch.manual_seed(seed)
+        self.env = env = vmas_simple_tag(num_envs, seed)
         # Drawn up-front, within each agent's action range (VMAS's own sampler).
         self.pool = [[env.get_random_action(a) for a in env.agents] for _ in range(POOL)]
         self.compile_s = time.perf_counter() - t0  # construction, for the record

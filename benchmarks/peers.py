@@ -60,6 +60,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any, Callable
 
+from peer_scenarios import COUNTS, vmas_simple_tag  # noqa: F401 (COUNTS: learning.py and render.py take it from here)
+
 # mpe2 imports pygame, which otherwise prints a banner on stdout.
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 # numpy's OpenBLAS worker threads busy-wait on a 2-core machine and steal time from the
@@ -81,7 +83,6 @@ REFERENCE = {
     "note": "latest snapshot removed the feasibility checks (captured 14 of 20 runs)",
 }
 
-COUNTS = {"wolves": 5, "targets": 1, "obstacles": 12}
 DEFAULT_SIZES = "1,64,1024,8192"
 
 
@@ -266,21 +267,8 @@ def bench_mpe2(steps: int, repeats: int, seed: int = 0) -> dict:
 def bench_vmas(steps: int, num_envs: int, repeats: int, seed: int = 0) -> dict:
     """VMAS in this process (where vmas and torch are importable here): learning.py uses it."""
     import torch
-    import vmas
 
-    env = vmas.make_env(
-        scenario="simple_tag",
-        num_envs=num_envs,
-        device="cpu",
-        continuous_actions=True,
-        seed=seed,
-        max_steps=None,
-        num_good_agents=COUNTS["targets"],
-        num_adversaries=COUNTS["wolves"],
-        num_landmarks=COUNTS["obstacles"],
-    )
-    env.reset()
-    torch.manual_seed(seed)
+    env = vmas_simple_tag(num_envs, seed)
     # Drawn up-front, within each agent's action range (VMAS's own sampler).
     plan = [[env.get_random_action(a) for a in env.agents] for _ in range(steps)]
     for actions in plan[: min(steps, 20)]:  # warm-up
