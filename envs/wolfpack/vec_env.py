@@ -59,6 +59,9 @@ RUNNING_INFO: Mapping[str, Any] = MappingProxyType({})
 #: The BatchEnv outputs that make up the numeric infos.
 _INFO_KEYS = ("outcome", "capture_step", "cornered_step", "energy", "collisions", "distance", "terminated", "truncated")
 
+#: What :attr:`WolfpackVecEnv.step_infos` holds.
+_STEP_INFO_KEYS = (*_INFO_KEYS, "steps")
+
 
 class _SlotView:
     """What ``get_attr``/``env_method`` see for one slot."""
@@ -137,7 +140,7 @@ class WolfpackVecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         out = self.batch.reset(self._next_seed)
         self._next_seed = None
-        self.step_infos = {k: out[k] for k in (*_INFO_KEYS, "steps")}
+        self.step_infos = {k: out[k] for k in _STEP_INFO_KEYS}
         self.reset_infos = self._slot_infos(out)
         return self._obs(out)
 
@@ -170,7 +173,7 @@ class WolfpackVecEnv(VecEnv):
             rewards = out[f"rewards_{self._side}"].reshape(-1).astype(np.float32, copy=False)
         done_world = out["terminated"] | out["truncated"]
         dones = np.repeat(done_world, self.per_world)
-        self.step_infos = {k: out[k] for k in (*_INFO_KEYS, "steps")}
+        self.step_infos = {k: out[k] for k in _STEP_INFO_KEYS}
         infos = self._step_infos(out, done_world)
         return obs, rewards, dones, infos
 

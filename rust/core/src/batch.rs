@@ -152,12 +152,9 @@ pub struct BatchEnv {
     autoreset: bool,
     slots: Vec<Slot>,
     /// The workers besides the calling thread (`threads − 1` of them; `None`: rayon's global
-    /// pool, or one thread).
+    /// pool, or one thread, which steps on the caller's thread alone).
     pool: Option<rayon::ThreadPool>,
     threads: Option<usize>,
-    /// `threads == 1`: step on the caller's thread (a one-thread pool would cost a hand-off
-    /// to its worker and back, ~12 µs, on every call).
-    inline: bool,
     track_laws: bool,
 }
 
@@ -192,9 +189,9 @@ impl BatchEnv {
             Some(t) => Some(rayon::ThreadPoolBuilder::new().num_threads(t - 1).build().map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, threads, inline: threads == Some(1), track_laws: false };
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, threads, track_laws: false };
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
-        let worlds: Vec<Result<Slot>> = if env.inline { (0..num_envs).map(g).collect() } else { share(env.pool.as_ref(), env.participants(), (0..num_envs).collect(), MAX_CHUNK, g) };
+        let worlds: Vec<Result<Slot>> = share(env.pool.as_ref(), env.participants(), (0..num_envs).collect(), MAX_CHUNK, g);
         env.slots = worlds.into_iter().collect::<Result<_>>()?;
         Ok(env)
     }
@@ -203,7 +200,7 @@ impl BatchEnv {
     /// to share (waking the pool and handing work back costs ≈ 10–20 µs, a world's step with
     /// observations ≈ 5–10 µs: below [`INLINE_BELOW`] worlds more threads only make it slower).
     fn steps_inline(&self) -> bool {
-        self.inline || self.slots.len() < INLINE_BELOW
+        self.participants() == 1 || self.slots.len() < INLINE_BELOW
     }
 
     /// Threads that step worlds: the caller and the pool's workers ([`share`]).
@@ -285,7 +282,7 @@ impl BatchEnv {
             };
             env_slot(&params, sd, ep, None)
         };
-        let fresh: Vec<Result<Slot>> = if self.inline { self.slots.iter().enumerate().map(g).collect() } else { share(self.pool.as_ref(), self.participants(), self.slots.iter().enumerate().collect(), MAX_CHUNK, g) };
+        let fresh: Vec<Result<Slot>> = share(self.pool.as_ref(), self.participants(), self.slots.iter().enumerate().collect(), MAX_CHUNK, g);
         self.slots = fresh.into_iter().collect::<Result<_>>()?;
         for s in &mut self.slots {
             s.world.track_laws = track;
@@ -490,7 +487,7 @@ impl BatchEnv {
             }
             (aw, at)
         };
-        let per: Vec<(Vec<f32>, Vec<f32>)> = if self.inline { self.slots.iter().map(f).collect() } else { share(self.pool.as_ref(), self.participants(), self.slots.iter().collect(), self.chunk(), f) };
+        let per: Vec<(Vec<f32>, Vec<f32>)> = share(self.pool.as_ref(), self.participants(), self.slots.iter().collect(), self.chunk(), f);
         let mut aw = Vec::with_capacity(self.slots.len() * n * 2);
         let mut at = Vec::with_capacity(self.slots.len() * m * 2);
         for (w, t) in per {
@@ -511,6 +508,10 @@ impl BatchEnv {
 /// as much as 16 worlds' work); here the caller starts at once and only the extra threads are
 /// woken.
 fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    if participants <= 1 {
+        // One thread: the caller's, with no pool to hand anything to.
+        return items.into_iter().map(f).collect();
+    }
     let n = items.len();
     let chunk = chunk.max(1);
     let mut chunks: Vec<(usize, Vec<T>)> = Vec::with_capacity(n.div_ceil(chunk));
