@@ -34,6 +34,8 @@ CHOICES = {
     "policies.wolves": ["seed000", "bvc", "formation"],
     "policies.targets": ["escape", "random", "still"],
     "env.action_mode": ["unicycle", "velocity"],
+    "env.wolf_action_mode": [None, "unicycle", "velocity"],
+    "env.target_action_mode": [None, "unicycle", "velocity"],
     "capture.rule": ["count", "encircle", "hunting_points"],
     "capture.cornered": [False, True],
     "world.feasibility_filter": [False, True],

@@ -454,6 +454,45 @@ impl BatchEnv {
         Ok(out)
     }
 
+    /// Changes who drives each side from the next step on, keeping every world as it is (for
+    /// leagues that swap opponents between rollouts): `learners` (the sides given actions)
+    /// and `params`, which may differ from this batch's only in `policies.*` (the scripted
+    /// laws) and `env.*action_mode` (how each side's actions are read). A side that becomes
+    /// scripted, or changes law, starts its law's memory afresh at the current state (a law
+    /// tracked since the episode began, see [`BatchEnv::expert_actions`], keeps its memory
+    /// when the law is unchanged). Nothing changes when the params differ elsewhere.
+    pub fn set_drivers(&mut self, learners: Learners, params: Params) -> Result<()> {
+        params.validate()?;
+        let mut same_elsewhere = params.resolved();
+        same_elsewhere.policies = self.params.policies.clone();
+        same_elsewhere.env.action_mode = self.params.env.action_mode;
+        same_elsewhere.env.wolf_action_mode = self.params.env.wolf_action_mode;
+        same_elsewhere.env.target_action_mode = self.params.env.target_action_mode;
+        if same_elsewhere != self.params.resolved() {
+            return Err(Error::Invalid(
+                "set_drivers: the params may differ only in policies.* and env.*action_mode (the world itself cannot change mid-episode; build a new batch)".into(),
+            ));
+        }
+        // A side's law starts afresh when it takes over from given actions without having
+        // followed them (untracked), or when its law changes.
+        let fresh = |was_driven: bool, now_driven: bool, law_changed: bool| !now_driven && ((was_driven && !self.track_laws) || law_changed);
+        let fresh_wolves = fresh(self.learners.wolves(), learners.wolves(), params.policies.wolves != self.params.policies.wolves);
+        let fresh_targets = fresh(self.learners.targets(), learners.targets(), params.policies.targets != self.params.policies.targets);
+        let params = Arc::new(params);
+        for s in &mut self.slots {
+            s.world.params = params.clone();
+            if fresh_wolves {
+                s.world.wolf_memory.iter_mut().for_each(|m| *m = Default::default());
+            }
+            if fresh_targets {
+                s.world.target_memory.iter_mut().for_each(|m| *m = Default::default());
+            }
+        }
+        self.params = params;
+        self.learners = learners;
+        Ok(())
+    }
+
     /// What the scripted law of each learning side would do now, as actions in this batch's
     /// action space: ([E, N, 2] or empty, [E, M, 2] or empty). The first call switches on
     /// law tracking: from then on the laws' memories follow every episode (see
@@ -467,7 +506,7 @@ impl BatchEnv {
         }
         let (n, m) = (self.n_wolves(), self.n_targets());
         let learners = self.learners;
-        let mode = self.params.env.action_mode;
+        let (wolf_mode, target_mode) = (self.params.env.wolf_mode(), self.params.env.target_mode());
         let f = |s: &Slot| {
             let w = &s.world;
             let (dw, dt) = w.expert_desired();
@@ -475,14 +514,14 @@ impl BatchEnv {
             let mut aw = Vec::new();
             if learners.wolves() {
                 for (a, &(v, th)) in w.wolves.iter().zip(&dw) {
-                    aw.extend(encode(mode, a.theta, v, th, p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts));
+                    aw.extend(encode(wolf_mode, a.theta, v, th, p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts));
                 }
             }
             let mut at = Vec::new();
             if learners.targets() {
                 let side = &p.agents.target;
                 for (a, &(v, th)) in w.targets.iter().zip(&dt) {
-                    at.extend(encode(mode, a.theta, v, th, side.v_max, side.omega_max, p.world.ts));
+                    at.extend(encode(target_mode, a.theta, v, th, side.v_max, side.omega_max, p.world.ts));
                 }
             }
             (aw, at)
@@ -590,14 +629,14 @@ fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layou
 #[allow(clippy::too_many_arguments)]
 fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Learners, autoreset: bool, params: &Arc<Params>, track: bool) -> Result<()> {
     let p = &**params;
-    let mode = p.env.action_mode;
+    let (wolf_mode, target_mode) = (p.env.wolf_mode(), p.env.target_mode());
     if !s.world.is_done() {
         for (k, a) in s.world.wolves.iter().enumerate().take(wa.len() / 2) {
-            s.wolf_cmds[k] = decode(mode, a.theta, wa[2 * k], wa[2 * k + 1], p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts);
+            s.wolf_cmds[k] = decode(wolf_mode, a.theta, wa[2 * k], wa[2 * k + 1], p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts);
         }
         let side = &p.agents.target;
         for (k, a) in s.world.targets.iter().enumerate().take(ta.len() / 2) {
-            s.target_cmds[k] = decode(mode, a.theta, ta[2 * k], ta[2 * k + 1], side.v_max, side.omega_max, p.world.ts);
+            s.target_cmds[k] = decode(target_mode, a.theta, ta[2 * k], ta[2 * k + 1], side.v_max, side.omega_max, p.world.ts);
         }
         let wc = learners.wolves().then_some(&s.wolf_cmds[..]);
         let tc = learners.targets().then_some(&s.target_cmds[..]);

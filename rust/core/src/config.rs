@@ -559,6 +559,11 @@ impl Default for LidarParams {
 #[serde(deny_unknown_fields, default)]
 pub struct EnvParams {
     pub action_mode: ActionMode,
+    /// The wolves' action mode when it differs from `action_mode` (None: `action_mode`); a
+    /// learned opponent trained in another mode keeps its own.
+    pub wolf_action_mode: Option<ActionMode>,
+    /// The targets' action mode when it differs from `action_mode` (None: `action_mode`).
+    pub target_action_mode: Option<ActionMode>,
     pub lidar: LidarParams,
     /// Append the agent's row of the interaction matrix (N+M entries, 0/1, from the last step).
     pub interaction_row: bool,
@@ -566,7 +571,19 @@ pub struct EnvParams {
 
 impl Default for EnvParams {
     fn default() -> Self {
-        Self { action_mode: ActionMode::Unicycle, lidar: LidarParams::default(), interaction_row: false }
+        Self { action_mode: ActionMode::Unicycle, wolf_action_mode: None, target_action_mode: None, lidar: LidarParams::default(), interaction_row: false }
+    }
+}
+
+impl EnvParams {
+    /// How the wolves' actions become commands.
+    pub fn wolf_mode(&self) -> ActionMode {
+        self.wolf_action_mode.unwrap_or(self.action_mode)
+    }
+
+    /// How the targets' actions become commands.
+    pub fn target_mode(&self) -> ActionMode {
+        self.target_action_mode.unwrap_or(self.action_mode)
     }
 }
 

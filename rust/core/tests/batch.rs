@@ -4,7 +4,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
-use wolfpack_core::config::ActionMode;
+use wolfpack_core::config::{ActionMode, WolfPolicy};
 use wolfpack_core::episode::run_episodes;
 use wolfpack_core::world::Outcome;
 use wolfpack_core::Params;
@@ -185,4 +185,82 @@ fn batches_stepped_inside_the_global_pool_do_not_wait_for_themselves() {
     inside.join().unwrap();
     let outside: Vec<_> = (0..4u64).map(|s| global_pool_energies(100 * s)).collect();
     assert_eq!(got, outside);
+}
+
+/// Steps `env` `steps` times with the same random actions for its learning sides (`rng`
+/// seeded 7), collecting every output's bits.
+fn drive(env: &mut BatchEnv, steps: usize) -> Vec<Vec<u64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (e, n, m, l) = (env.num_envs(), env.n_wolves(), env.n_targets(), env.learners());
+    (0..steps)
+        .map(|_| {
+            let wa = if l.wolves() { random_actions(&mut rng, e * n * 2) } else { vec![] };
+            let ta = if l.targets() { random_actions(&mut rng, e * m * 2) } else { vec![] };
+            bits(&env.step(&wa, &ta).unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn each_side_reads_its_actions_in_its_own_mode() {
+    // Wolves in velocity mode while env.action_mode stays unicycle == everything in velocity
+    // mode, when only the wolves act (and the same for the targets); unicycle differs.
+    let with = |mode: ActionMode, wolf: Option<ActionMode>, target: Option<ActionMode>| {
+        let mut p = Params::default();
+        p.env.action_mode = mode;
+        p.env.wolf_action_mode = wolf;
+        p.env.target_action_mode = target;
+        p
+    };
+    let run = |p: Params, l: Learners| drive(&mut BatchEnv::new(p, 5, l, 4, true, Some(1)).unwrap(), 120);
+    let (v, u) = (ActionMode::Velocity, ActionMode::Unicycle);
+    assert_eq!(run(with(u, Some(v), None), Learners::Wolves), run(with(v, None, None), Learners::Wolves));
+    assert_eq!(run(with(u, None, Some(v)), Learners::Targets), run(with(v, None, None), Learners::Targets));
+    assert_eq!(run(with(v, Some(u), None), Learners::Wolves), run(with(u, None, None), Learners::Wolves));
+    assert_ne!(run(with(u, Some(v), None), Learners::Wolves), run(with(u, None, None), Learners::Wolves));
+    // Both sides at once, each in its own mode: the target's mode is the one that matters for it.
+    assert_eq!(run(with(u, Some(v), Some(u)), Learners::All), run(with(v, None, Some(u)), Learners::All));
+    assert_ne!(run(with(u, Some(v), Some(u)), Learners::All), run(with(u, Some(v), Some(v)), Learners::All));
+}
+
+#[test]
+fn set_drivers_before_the_first_step_is_building_the_batch_that_way() {
+    let mut bvc = Params::default();
+    bvc.policies.wolves = WolfPolicy::Bvc;
+    let mut swapped = BatchEnv::new(Params::default(), 9, Learners::Targets, 21, true, Some(2)).unwrap();
+    swapped.set_drivers(Learners::Targets, bvc.clone()).unwrap();
+    let mut built = BatchEnv::new(bvc.clone(), 9, Learners::Targets, 21, true, Some(2)).unwrap();
+    assert_eq!(drive(&mut swapped, 400), drive(&mut built, 400), "a scripted law swapped in");
+    // A scripted side handed to given actions, and the action mode changed with it.
+    let mut vel = bvc.clone();
+    vel.env.wolf_action_mode = Some(ActionMode::Velocity);
+    let mut swapped = BatchEnv::new(bvc, 9, Learners::Targets, 21, true, Some(2)).unwrap();
+    swapped.set_drivers(Learners::All, vel.clone()).unwrap();
+    let mut built = BatchEnv::new(vel, 9, Learners::All, 21, true, Some(2)).unwrap();
+    assert_eq!(drive(&mut swapped, 400), drive(&mut built, 400), "wolves given to a learner");
+}
+
+#[test]
+fn set_drivers_keeps_the_worlds_mid_episode() {
+    // The same drivers again change nothing; a new law takes over from the current state
+    // (the first 50 steps are those of the old law, the next differ); other params are refused.
+    let p = Params::default();
+    let mut plain = BatchEnv::new(p.clone(), 6, Learners::None, 5, true, Some(1)).unwrap();
+    let mut again = BatchEnv::new(p.clone(), 6, Learners::None, 5, true, Some(1)).unwrap();
+    let mut swapped = BatchEnv::new(p.clone(), 6, Learners::None, 5, true, Some(1)).unwrap();
+    let (a, b, c) = (drive(&mut plain, 50), drive(&mut again, 50), drive(&mut swapped, 50));
+    assert!(a == b && b == c);
+    again.set_drivers(Learners::None, p.clone()).unwrap();
+    let mut formation = p.clone();
+    formation.policies.wolves = WolfPolicy::Formation;
+    swapped.set_drivers(Learners::None, formation).unwrap();
+    let rest = drive(&mut plain, 60);
+    assert_eq!(rest, drive(&mut again, 60), "the same drivers again");
+    assert_ne!(rest, drive(&mut swapped, 60), "formation took over");
+    assert_eq!(swapped.world(0).unwrap().params.policies.wolves, WolfPolicy::Formation);
+    let mut bigger = p.clone();
+    bigger.world.max_steps += 1;
+    let e = again.set_drivers(Learners::None, bigger).unwrap_err().to_string();
+    assert!(e.contains("policies") && e.contains("action_mode"), "{e}");
+    assert_eq!(again.params(), &p, "a refused change changes nothing");
 }

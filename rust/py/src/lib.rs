@@ -442,6 +442,16 @@ impl PyBatchEnv {
         step_output_to_py(py, &self.inner, out)
     }
 
+    /// Who drives each side from the next step on, keeping every world: `learners` and a
+    /// params dict that differs from this batch's only in `policies.*` and
+    /// `env.*action_mode` (wolfpack_core::batch::BatchEnv::set_drivers).
+    fn set_drivers(&mut self, learners: &str, params: &Bound<'_, PyAny>) -> PyResult<()> {
+        let l = Learners::parse(learners).map_err(value_error)?;
+        let p = params_from(params)?;
+        let env = &mut self.inner;
+        guarded(|| env.set_drivers(l, p))?.map_err(value_error)
+    }
+
     /// The scripted laws' actions for the learning sides: (wolves [E, N, 2] or None,
     /// targets [E, M, 2] or None), float32.
     fn expert_actions<'py>(&mut self, py: Python<'py>) -> PyResult<(Option<Bound<'py, PyAny>>, Option<Bound<'py, PyAny>>)> {
