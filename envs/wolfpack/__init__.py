@@ -9,6 +9,8 @@ Public entry points (docs/interface.md in the repository has the whole interface
 - ``gymnasium.make("wolfpack/Escape-v0")`` — one learning target (registered on import).
 - :func:`make_vec_env` — SB3 ``VecEnv`` over the native batch (needs stable-baselines3).
 - :class:`BatchEnv` — the native batch itself.
+- :class:`Opponent` — what drives the side that does not learn: a law, an SB3 model or a
+  callable (``opponent=`` of every env; :mod:`wolfpack.opponents`).
 - ``wolfpack`` command line: ``wolfpack hunt --help``.
 """
 
@@ -16,16 +18,17 @@ from wolfpack._core import __version__
 from wolfpack.config import DEFAULT_PARAMS_PATH, load_params, load_layout
 from wolfpack.episodes import run_episodes, summarize
 from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.opponents import Opponent
 from wolfpack.parallel_env import env, parallel_env
 
 
-def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, **overrides):
+def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, opponent=None, **overrides):
     """An SB3 ``VecEnv`` over the native batch: one slot per learning agent per world (see
     :mod:`wolfpack.vec_env`); ``learners="all"`` needs ``shared_space=True``. Imports
     stable-baselines3 on first use."""
     from wolfpack.vec_env import make_vec_env as _make
 
-    return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)
+    return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
 
 
 def _vec_env_docstring() -> str:
@@ -58,6 +61,7 @@ __all__ = [
     "run_episodes",
     "summarize",
     "BatchEnv",
+    "Opponent",
     "OUTCOMES",
     "parallel_env",
     "env",

@@ -70,6 +70,11 @@ class BatchEnv:
         """One step; float32 C-contiguous actions [E, N, 2] / [E, M, 2] for the learning sides."""
     def expert_actions(self) -> tuple[Any, Any]:
         """The scripted laws' actions for the learning sides (None for the others)."""
+    def observe(self) -> dict[str, Any]:
+        """The current observations and infos of every world (nothing moves, no rewards)."""
+    def set_drivers(self, learners: str, params: dict[str, Any]) -> None:
+        """Who drives each side from the next step on; params may differ only in policies.*
+        and env.*action_mode. Every world is kept."""
     def state(self) -> Any:
         """Every world's global state, float32 [num_envs, state_dim]."""
     def world_state(self, index: int) -> dict[str, Any]:

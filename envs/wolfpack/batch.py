@@ -16,6 +16,7 @@ import numpy as np
 from wolfpack import _core
 from wolfpack._checks import check_flag, check_index, check_int, check_seed, check_threads
 from wolfpack.config import apply_overrides, check_tree, load_params
+from wolfpack.opponents import Opponent, as_opponent, drivers, opponent_side
 
 LEARNERS = ("wolves", "targets", "all", "none")
 
@@ -197,6 +198,12 @@ class BatchEnv:
         autoreset: reset a finished world within the same step (SB3's convention), keeping
             its last observation in ``final_obs_*``.
         threads: worker threads (None: all cores; at most 256). Results never depend on it.
+        opponent: what drives the side that does not learn (:mod:`wolfpack.opponents`): None
+            (its law in params), a scripted law's name, a model path, an SB3 model or policy,
+            a callable ``obs [n, D] -> actions [n, 2]``, or a :class:`wolfpack.Opponent`. A
+            learned opponent is one batched call per step for all its agents in all worlds;
+            its observations never appear in the outputs. Swap it with
+            :meth:`set_opponent`. With ``learners="none"`` it must say its side.
         **overrides: params overrides, ``world__wolves=8`` or ``**{"world.wolves": 8}``.
 
     A wrong type (a str seed, a float ``num_envs``, a bool where a number is meant) is a
@@ -224,16 +231,23 @@ class BatchEnv:
         seed: int = 0,
         autoreset: bool = True,
         threads: int | None = None,
+        opponent: Any = None,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, **overrides)
+        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, **overrides)
         self.learners = check_learners(learners)
         num_envs = check_int(num_envs, "num_envs", 1)
         threads = check_threads(threads)
         seed = check_seed(seed, span=num_envs)
         autoreset = check_flag(autoreset, "autoreset")
         check_override_keywords(overrides)
-        self._core = _core.BatchEnv(resolve_params(params, overrides), num_envs, learners, seed, autoreset, threads)
+        self._base_params = resolve_params(params, overrides)
+        self.opponent: Opponent | None = as_opponent(opponent) if opponent is not None else None
+        core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)
+        self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads)
+        self._core_learners = core_learners
+        #: The opponent side's observations of the current step ([E, K, D]), for its next action.
+        self._opponent_obs: np.ndarray | None = None
         self.params: dict = self._core.params
         self.num_envs: int = self._core.num_envs
         self.n_wolves: int = self._core.n_wolves
@@ -242,6 +256,53 @@ class BatchEnv:
         self.target_obs_dim: int = self._core.target_obs_dim
         #: Entries of one world's global state row (see :meth:`state`).
         self.state_dim: int = self._core.state_dim
+        self._check_opponent_fits(self.opponent)
+
+    # --- the opponent -------------------------------------------------------------------------
+
+    @property
+    def opponent_side(self) -> str | None:
+        """The side a learned or named opponent drives (None without one)."""
+        return opponent_side(self.opponent, self.learners) if self.opponent is not None else None
+
+    def _check_opponent_fits(self, opponent: Opponent | None) -> None:
+        if opponent is None or opponent.obs_dim is None:
+            return
+        side = opponent_side(opponent, self.learners)
+        ours = self.wolf_obs_dim if side == "wolves" else self.target_obs_dim
+        if opponent.obs_dim != ours:
+            raise ValueError(f"opponent {opponent.name!r} takes {opponent.obs_dim} observations, but the {side} here have {ours} (other params, or an older observation layout)")
+
+    def set_opponent(self, opponent: Any) -> None:
+        """Swaps what drives the non-learning side from the next step on, keeping every world
+        as it is (for leagues: swap between rollouts). ``opponent`` as in the constructor; None
+        goes back to the law of the params the batch was built with. A scripted law that takes
+        over mid-episode starts its memory afresh at the current state."""
+        new = as_opponent(opponent) if opponent is not None else None
+        if new is not None:
+            self._check_opponent_fits(new)
+        core_learners, core_params = drivers(self._base_params, self.learners, new)
+        self._core.set_drivers(core_learners, core_params)
+        was_driven = self._core_learners
+        self._core_learners, self.opponent, self.params = core_learners, new, self._core.params
+        if core_learners != was_driven and new is not None and new.learned:
+            self._opponent_obs = self._pop_opponent_obs(self._core.observe())
+        elif new is None or not new.learned:
+            self._opponent_obs = None
+
+    def _pop_opponent_obs(self, out: dict) -> np.ndarray | None:
+        """Takes the opponent side's observations out of a core output (and its final ones)."""
+        side = self.opponent_side if self.opponent is not None and self.opponent.learned else None
+        if side is None:
+            return None
+        out.pop(f"final_obs_{side}", None)
+        return out.pop(f"obs_{side}")
+
+    def _opponent_actions(self) -> np.ndarray:
+        """One batched call: the opponent's actions for all its agents in all worlds."""
+        obs = self._opponent_obs
+        e, k, d = obs.shape
+        return self.opponent.act(obs.reshape(e * k, d)).reshape(e, k, 2)
 
     def __reduce__(self):
         # Constructor-argument pickling: the copy is a fresh batch built the same way.
@@ -258,7 +319,9 @@ class BatchEnv:
     def reset(self, seed: int | None = None) -> dict[str, np.ndarray]:
         """Resets every world; with ``seed``, world i is re-seeded ``seed + i`` (so ``seed +
         num_envs - 1`` must be < 2**64)."""
-        return self._core.reset(check_seed(seed, span=self.num_envs, optional=True))
+        out = self._core.reset(check_seed(seed, span=self.num_envs, optional=True))
+        self._opponent_obs = self._pop_opponent_obs(out)
+        return out
 
     def state(self) -> np.ndarray:
         """Every world's global state for centralised critics, float32 [E, state_dim], every
@@ -275,7 +338,13 @@ class BatchEnv:
         seed = check_seed(seed, optional=True)
         if layout is not None:
             check_tree(layout, "layout")
-        return self._core.reset_world(index, seed, layout)
+        out = self._core.reset_world(index, seed, layout)
+        fresh = self._pop_opponent_obs(out)
+        if fresh is not None and self._opponent_obs is not None:
+            self._opponent_obs[index] = fresh[index]
+        elif fresh is not None:
+            self._opponent_obs = fresh
+        return out
 
     def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, np.ndarray]:
         """Steps every world. Actions [E, N, 2] / [E, M, 2] in [-1, 1] (clipped), for (and only
@@ -286,11 +355,26 @@ class BatchEnv:
             raise ValueError("wolf actions are required: wolves are learners here")
         if self.learns_targets and ta is None:
             raise ValueError("target actions are required: targets are learners here")
-        return self._core.step(wa, ta)
+        if not self.learns_wolves and wa is not None:
+            raise ValueError("wolf actions given, but the wolves are not learners here")
+        if not self.learns_targets and ta is not None:
+            raise ValueError("target actions given, but the targets are not learners here")
+        side = self.opponent_side if self.opponent is not None and self.opponent.learned else None
+        if side is not None:
+            if self._opponent_obs is None:
+                raise RuntimeError("step() before reset(): the opponent has no observations to act on")
+            if side == "wolves":
+                wa = self._opponent_actions()
+            else:
+                ta = self._opponent_actions()
+        out = self._core.step(wa, ta)
+        self._opponent_obs = self._pop_opponent_obs(out)
+        return out
 
     def expert_actions(self) -> tuple[np.ndarray | None, np.ndarray | None]:
         """The scripted laws' actions for the learning sides, in their action space."""
-        return self._core.expert_actions()
+        wa, ta = self._core.expert_actions()
+        return (wa if self.learns_wolves else None, ta if self.learns_targets else None)
 
     def world_state(self, index: int = 0) -> dict[str, Any]:
         """World ``index``'s full state (see ``WolfpackParallelEnv.world_state``)."""

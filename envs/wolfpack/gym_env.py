@@ -2,7 +2,8 @@
 
 The single-agent view of :mod:`wolfpack.parallel_env` with ``learners="targets"``: the same
 target observation, action space, rewards, termination and infos (see that module's
-docstring). The wolves follow ``policies.wolves`` (default ``seed000``). Needs
+docstring). The wolves follow ``policies.wolves`` (default ``seed000``), or ``opponent`` (a
+law's name, a saved wolf model or a callable: :mod:`wolfpack.opponents`). Needs
 ``world.targets == 1``.
 
     import gymnasium, wolfpack
@@ -38,11 +39,11 @@ class EscapeEnv(gymnasium.Env):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
 
-    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, **overrides: Any) -> None:
-        self._init_kwargs = dict(params=params, render_mode=render_mode, render_options=render_options, seed=seed, **overrides)
+    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, opponent: Any = None, **overrides: Any) -> None:
+        self._init_kwargs = dict(params=params, render_mode=render_mode, render_options=render_options, seed=seed, opponent=opponent, **overrides)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
         frame_options = FrameOptions(**check_render_options(render_options))
-        self._batch = BatchEnv(params, num_envs=1, learners="targets", seed=seed, autoreset=False, threads=1, **overrides)
+        self._batch = BatchEnv(params, num_envs=1, learners="targets", seed=seed, autoreset=False, threads=1, opponent=opponent, **overrides)
         self._view = EnvRendering(self.render_mode, self._batch.params, frame_options, self.metadata["render_fps"])
         if self._batch.n_targets != 1:
             raise ValueError(f"Escape-v0 has one learning target; world.targets is {self._batch.n_targets} (use wolfpack.parallel_env for several)")

@@ -1,13 +1,19 @@
 """A Stable-Baselines3 ``VecEnv`` over the native batch: one slot per learning agent per world.
 
 ``make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None,
-shared_space=False)`` builds ``num_envs`` worlds; with ``learners="wolves"`` there are
+shared_space=False, opponent=None)`` builds ``num_envs`` worlds; with ``learners="wolves"`` there are
 ``num_envs × N`` slots (slot ``e·N + i`` is wolf i of world e), with ``"targets"`` ``num_envs ×
 M``, and with ``learners="all", shared_space=True`` ``num_envs × (N+M)`` (slot ``e·(N+M) + k``:
 wolves first, then targets) in the shared observation layout of :mod:`wolfpack.parallel_env`
 (side flag, agent one-hot, padded observation). All slots share one policy (parameter
 sharing). Observations, actions and rewards are those of :mod:`wolfpack.parallel_env`.
 ``state()`` gives one global-state row per world (for centralised critics).
+
+``opponent`` drives the other side (:mod:`wolfpack.opponents`): a scripted law's name, a saved
+SB3 model (path or object), a batched callable ``obs [n, D] -> actions [n, 2]``, or a
+``wolfpack.Opponent``; one batched call per step for all its agents in all worlds.
+``venv.set_opponent(x)`` swaps it from the next step on and keeps every world (a league's
+callback swaps it between rollouts; SB3's ``VecMonitor`` forwards the call).
 
 Sizing PPO for a batch: SB3's ``n_steps`` counts vector steps, so one rollout is ``n_steps ×
 num_envs`` slots long — with SB3's default 2048 and 64 worlds × 5 wolves that is 655,360
@@ -91,9 +97,10 @@ class WolfpackVecEnv(VecEnv):
         seed: int = 0,
         threads: int | None = None,
         shared_space: bool = False,
+        opponent: Any = None,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)
+        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
         if learners not in ("wolves", "targets", "all"):
             raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'all' (with shared_space=True), got {learners!r}")
         if learners == "all" and shared_space is not True:
@@ -102,7 +109,7 @@ class WolfpackVecEnv(VecEnv):
                 "sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
             )
         check_shared_space(shared_space, learners)
-        self.batch = BatchEnv(params, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, **overrides)
+        self.batch = BatchEnv(params, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, opponent=opponent, **overrides)
         self.learners = learners
         self.worlds = self.batch.num_envs
         n, m = self.batch.n_wolves, self.batch.n_targets
@@ -125,6 +132,16 @@ class WolfpackVecEnv(VecEnv):
 
     def __reduce__(self):
         return (rebuild, (type(self), self._init_kwargs))
+
+    @property
+    def opponent(self):
+        """What drives the other side (a :class:`wolfpack.Opponent`, or None: its params law)."""
+        return self.batch.opponent
+
+    def set_opponent(self, opponent: Any) -> None:
+        """Swaps the other side's driver from the next step on, keeping every world
+        (:meth:`wolfpack.BatchEnv.set_opponent`)."""
+        self.batch.set_opponent(opponent)
 
     def slot_of(self, world_index: int, agent: str) -> int:
         return world_index * self.per_world + self._agents.index(agent)
@@ -256,7 +273,8 @@ def make_vec_env(
     seed: int = 0,
     threads: int | None = None,
     shared_space: bool = False,
+    opponent: Any = None,
     **overrides: Any,
 ) -> WolfpackVecEnv:
     """An SB3 ``VecEnv`` of ``num_envs`` worlds (see this module's docstring)."""
-    return WolfpackVecEnv(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, **overrides)
+    return WolfpackVecEnv(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)

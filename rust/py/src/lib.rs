@@ -442,6 +442,14 @@ impl PyBatchEnv {
         step_output_to_py(py, &self.inner, out)
     }
 
+    /// The current observations and infos of every world, as a step would return them (no
+    /// rewards; nothing moves): for a side that just became driven (`set_drivers`).
+    fn observe<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let env = &mut self.inner;
+        let out = py.detach(|| guarded(|| env.observe_all()))?;
+        step_output_to_py(py, &self.inner, out)
+    }
+
     /// Who drives each side from the next step on, keeping every world: `learners` and a
     /// params dict that differs from this batch's only in `policies.*` and
     /// `env.*action_mode` (wolfpack_core::batch::BatchEnv::set_drivers).

@@ -1,0 +1,278 @@
+"""Opponents: what drives the side that does not learn.
+
+Every env (:class:`wolfpack.BatchEnv`, :func:`wolfpack.make_vec_env`, :func:`wolfpack.parallel_env`)
+takes ``opponent=``, one of
+
+- **a scripted law by name**: wolves ``"seed000"``, ``"bvc"``, ``"formation"``; targets
+  ``"escape"``, ``"random"``, ``"still"``. It runs inside the core, exactly as ``policies.*``
+  in params does (the name sets that key);
+- **a saved Stable-Baselines3 model**: the path of a ``.zip`` or of a run folder of
+  ``training/`` (``model.zip`` + ``config.yaml``; a checkpoint's run folder is its zip's parent
+  or grandparent), or a loaded model (``BaseAlgorithm``) or policy (``BasePolicy``);
+- **any batched callable** ``obs [n, D] float32 -> actions [n, 2]`` (values in [-1, 1], clipped);
+- an :class:`Opponent` wrapping one of these with options: ``deterministic=False`` (sample from
+  the policy's action distribution with a numpy generator seeded ``seed``, so that sampled
+  rollouts repeat too), ``action_mode`` (how its actions are read; a model from a run folder
+  brings its own), ``side`` (which side it drives, needed with ``learners="none"``), ``name``.
+
+A learned opponent is evaluated once per step for all its agents in all worlds: one batched call
+(one forward pass) on the observations its side would have as a learner. Autoreset and infos
+are those of a scripted opponent; the opponent's observations never appear in the outputs.
+Its actions are read in its own action mode (``env.wolf_action_mode`` /
+``env.target_action_mode``), so a wolf model trained in velocity mode can meet a target
+model trained in unicycle mode.
+
+Bad opponents are ValueErrors: an observation or action size that does not fit the side it
+drives (both sizes named), an opponent for a side that learns, a callable that returns NaN or
+the wrong shape (the opponent named).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+SIDES = ("wolves", "targets")
+#: The scripted laws each side can follow, by name.
+SCRIPTED_LAWS = {"wolves": ("seed000", "bvc", "formation"), "targets": ("escape", "random", "still")}
+ACTION_MODES = ("unicycle", "velocity")
+#: Where a run folder keeps its model and its configuration (training/).
+MODEL_FILE = "model.zip"
+CONFIG_FILE = "config.yaml"
+
+
+def _law_side(name: str) -> str | None:
+    return next((side for side, laws in SCRIPTED_LAWS.items() if name in laws), None)
+
+
+def find_model(where: str | Path) -> tuple[Path, Path | None]:
+    """(the model's zip, its run's ``config.yaml`` or None) for a zip path or a run folder.
+    ValueError when there is no zip there."""
+    path = Path(where)
+    zip_path = path / MODEL_FILE if path.is_dir() else (path if path.suffix == ".zip" else path.with_suffix(".zip"))
+    if not zip_path.is_file():
+        raise ValueError(f"opponent {str(where)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({zip_path})")
+    config = next((d / CONFIG_FILE for d in (zip_path.parent, zip_path.parent.parent) if (d / CONFIG_FILE).is_file()), None)
+    return zip_path, config
+
+
+def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
+    """An SB3 model from its zip: with ``algo`` (``ppo``, ``sac``, ``a2c``, ``td3``) that class,
+    else the class whose policy the zip holds. ValueError naming the file when it is no SB3
+    model."""
+    import stable_baselines3 as sb3
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    classes = {"ppo": sb3.PPO, "sac": sb3.SAC, "a2c": sb3.A2C, "td3": sb3.TD3}
+    try:
+        if algo is None:
+            data, _, _ = load_from_zip_file(zip_path, device=device, load_data=True)
+            policy = getattr(data.get("policy_class"), "__module__", "") if data else ""
+            algo = next((k for k in ("sac", "td3") if f".{k}." in f".{policy}."), "ppo")
+        if algo not in classes:
+            raise ValueError(f"unknown algorithm {algo!r} (one of {', '.join(classes)})")
+        return classes[algo].load(zip_path, device=device)
+    except Exception as e:  # a truncated or foreign zip: say which file
+        raise ValueError(f"opponent {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
+
+
+def _run_label(zip_path: Path, config: dict) -> str:
+    """``<kind>:<run folder>`` as training/evaluate.py names models (``ppo:wolves_ft``,
+    ``imitation:wolves_bc``; a checkpoint adds its file: ``ppo:run/rollout_100000_steps``)."""
+    kind = "imitation" if "imitation_of" in config else str(config.get("algo", "sb3"))
+    if zip_path.name == MODEL_FILE:
+        return f"{kind}:{zip_path.parent.name}"
+    run = zip_path.parent if (zip_path.parent / CONFIG_FILE).is_file() else zip_path.parent.parent
+    return f"{kind}:{run.name}/{zip_path.stem}"
+
+
+class Opponent:
+    """One side's driver (see the module docstring).
+
+    Args:
+        policy: a scripted law's name, a model path, an SB3 model or policy, or a callable
+            ``obs [n, D] -> actions [n, 2]``.
+        side: ``"wolves"`` or ``"targets"``; None: the side not learning (a law's name and a
+            run folder's ``config.yaml`` know theirs).
+        deterministic: True: the policy's mode (the Gaussian mean); False: sampled.
+        seed: seeds the sampling generator (``deterministic=False``).
+        action_mode: ``"unicycle"`` or ``"velocity"``, the mode its actions are in; None: a
+            run folder's own, else the env's.
+        name: the label in tables and errors (default: the law, ``<algo>:<run folder>``, or the
+            callable's name).
+
+    Attributes: ``kind`` (``"scripted"``, ``"model"`` or ``"callable"``), ``law`` (scripted),
+    ``obs_dim`` (the observation size a model takes, None for a callable), ``config`` (a run
+    folder's configuration, else {}), ``model`` (the SB3 model or policy, else None).
+    """
+
+    def __init__(
+        self,
+        policy: Any,
+        *,
+        side: str | None = None,
+        deterministic: bool = True,
+        seed: int = 0,
+        action_mode: str | None = None,
+        name: str | None = None,
+    ) -> None:
+        if side is not None and side not in SIDES:
+            raise ValueError(f"opponent side must be 'wolves' or 'targets', got {side!r}")
+        if action_mode is not None and action_mode not in ACTION_MODES:
+            raise ValueError(f"opponent action_mode must be 'unicycle' or 'velocity', got {action_mode!r}")
+        if not isinstance(deterministic, bool):
+            raise ValueError(f"opponent deterministic must be True or False, got {deterministic!r}")
+        self.deterministic = deterministic
+        self.seed = seed
+        self._rng = np.random.default_rng(seed)
+        self.law: str | None = None
+        self.config: dict = {}
+        self.model: Any = None
+        self.obs_dim: int | None = None
+        self._call: Callable[[np.ndarray], np.ndarray] | None = None
+        mode = action_mode
+        if isinstance(policy, Opponent):
+            raise TypeError("opponent: already an Opponent (give its policy, or use it as it is)")
+        if isinstance(policy, str) and _law_side(policy) is not None:
+            self.kind, self.law = "scripted", policy
+            law_side = _law_side(policy)
+            if side is not None and side != law_side:
+                raise ValueError(f"opponent {policy!r} is a law of the {law_side}, not of the {side}")
+            side, label = law_side, policy
+        elif isinstance(policy, (str, Path)):
+            self.kind = "model"
+            zip_path, config_path = find_model(policy)
+            if config_path is not None:
+                import yaml
+
+                self.config = yaml.safe_load(config_path.read_text()) or {}
+            self.model = load_sb3(zip_path, self.config.get("algo"))
+            trained_side = self.config.get("side")
+            if trained_side in SIDES:
+                if side is not None and side != trained_side:
+                    raise ValueError(f"opponent {zip_path}: trained for the {trained_side}, asked to drive the {side}")
+                side = trained_side
+            env = (self.config.get("params") or {}).get("env") or {}
+            own = env.get("wolf_action_mode" if side == "wolves" else "target_action_mode") if side else None
+            mode = mode or own or env.get("action_mode")
+            label = _run_label(zip_path, self.config) if self.config else zip_path.stem
+        elif callable(getattr(policy, "predict", None)) and hasattr(policy, "observation_space"):
+            self.kind, self.model = "model", policy
+            label = type(policy).__name__
+        elif callable(policy):
+            self.kind, self._call = "callable", policy
+            label = getattr(policy, "__name__", type(policy).__name__)
+        else:
+            raise TypeError(f"opponent must be a law's name, a model path, an SB3 model or policy, or a callable obs -> actions; got {type(policy).__name__}")
+        if self.model is not None:
+            self._check_spaces()
+        self.side = side
+        self.action_mode = mode
+        self.name = name or label
+
+    def _check_spaces(self) -> None:
+        obs_space, act_space = self.model.observation_space, self.model.action_space
+        if getattr(obs_space, "shape", None) is None or len(obs_space.shape) != 1:
+            raise ValueError(f"opponent: a model with observations of shape {getattr(obs_space, 'shape', None)}; wolfpack's are vectors")
+        if getattr(act_space, "shape", None) != (2,):
+            raise ValueError(f"opponent: the model's actions have shape {getattr(act_space, 'shape', None)}, a wolfpack agent's action has 2 entries")
+        self.obs_dim = int(obs_space.shape[0])
+
+    @property
+    def learned(self) -> bool:
+        """Whether it runs outside the core (a model or a callable)."""
+        return self.kind != "scripted"
+
+    def reseed(self, seed: int) -> None:
+        """Restarts the sampling generator (``deterministic=False``) at ``seed``."""
+        self.seed = seed
+        self._rng = np.random.default_rng(seed)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions for observations [n, D] → float32 [n, 2], checked (ValueError naming this
+        opponent when the shape is wrong or a value is not finite)."""
+        if self.kind == "scripted":
+            raise RuntimeError(f"opponent {self.name!r} is a scripted law: it runs inside the core")
+        obs = np.ascontiguousarray(obs, dtype=np.float32)
+        raw = self._call(obs) if self._call is not None else self._policy_actions(obs)
+        a = np.asarray(raw)
+        if a.dtype.kind not in "fiu":
+            raise ValueError(f"opponent {self.name!r} returned actions of dtype {a.dtype}, expected numbers")
+        if a.shape != (obs.shape[0], 2):
+            raise ValueError(f"opponent {self.name!r} returned actions of shape {a.shape} for {obs.shape[0]} observations, expected {(obs.shape[0], 2)}")
+        if not np.isfinite(a).all():
+            k = int(np.argmax(~np.isfinite(a).all(axis=1)))
+            raise ValueError(f"opponent {self.name!r} returned a non-finite action for observation {k}: {a[k].tolist()}")
+        return np.ascontiguousarray(a, dtype=np.float32)
+
+    def _policy_actions(self, obs: np.ndarray) -> np.ndarray:
+        if self.deterministic:
+            actions, _ = self.model.predict(obs, deterministic=True)
+            return np.clip(actions, -1.0, 1.0)
+        return self._sampled(obs)
+
+    def _sampled(self, obs: np.ndarray) -> np.ndarray:
+        """A draw from the policy's action distribution with this opponent's own generator
+        (torch's global one would tie the opponent to the learner's random stream): Gaussian
+        policies (PPO, A2C) mean + σ·ε, clipped to [-1, 1] as SB3 does; SAC's squashed
+        Gaussian tanh(mean + σ·ε)."""
+        import torch
+
+        policy = getattr(self.model, "policy", self.model)
+        with torch.no_grad():
+            t = torch.as_tensor(obs, device=policy.device)
+            if hasattr(policy, "actor") and hasattr(policy.actor, "get_action_dist_params"):
+                mean, log_std, _ = policy.actor.get_action_dist_params(t)
+                mean, std = mean.cpu().numpy(), log_std.exp().cpu().numpy()
+                return np.tanh(mean + std * self._rng.standard_normal(mean.shape))
+            if not hasattr(policy, "get_distribution"):
+                raise ValueError(f"opponent {self.name!r}: cannot sample from a {type(policy).__name__} (use deterministic=True)")
+            dist = policy.get_distribution(t).distribution
+            if not (hasattr(dist, "mean") and hasattr(dist, "stddev")):
+                raise ValueError(f"opponent {self.name!r}: cannot sample from a {type(dist).__name__} distribution (use deterministic=True)")
+            mean, std = dist.mean.cpu().numpy(), dist.stddev.cpu().numpy()
+        return np.clip(mean + std * self._rng.standard_normal(mean.shape), -1.0, 1.0)
+
+    def __repr__(self) -> str:
+        sampled = "" if self.deterministic else ", sampled"
+        return f"Opponent({self.name!r}, {self.kind}, side={self.side!r}{sampled})"
+
+
+def as_opponent(spec: Any) -> Opponent:
+    """``spec`` as an :class:`Opponent` (an Opponent stays itself)."""
+    return spec if isinstance(spec, Opponent) else Opponent(spec)
+
+
+def opponent_side(opponent: Opponent, learners: str) -> str:
+    """The side ``opponent`` drives when ``learners`` learn; ValueError when there is none or
+    it would drive a side that learns."""
+    if learners == "all":
+        raise ValueError("opponent: with learners='all' both sides learn, so there is no side for an opponent to drive")
+    free = {"wolves": "targets", "targets": "wolves"}.get(learners)
+    side = opponent.side or free
+    if side is None:
+        raise ValueError(f"opponent {opponent.name!r}: with learners='none' say which side it drives (Opponent(..., side='wolves' or 'targets'))")
+    if learners in (side, "all"):
+        raise ValueError(f"opponent {opponent.name!r} drives the {side}, but the {side} learn here (learners={learners!r}); an opponent drives the side that does not learn")
+    return side
+
+
+def drivers(params: dict, learners: str, opponent: Opponent | None) -> tuple[str, dict]:
+    """(the core's learners, its params) for ``learners`` against ``opponent``: a scripted
+    opponent sets its side's law; a learned one makes its side driven from Python, read in its
+    action mode."""
+    if opponent is None:
+        return learners, params
+    side = opponent_side(opponent, learners)
+    p = json.loads(json.dumps(params))
+    key = "wolf_action_mode" if side == "wolves" else "target_action_mode"
+    if not opponent.learned:
+        p["policies"][side] = opponent.law
+        return learners, p
+    if opponent.action_mode is not None:  # else the params' mode for that side
+        p["env"][key] = opponent.action_mode
+    driven = {"wolves": {"none": "wolves", "targets": "all"}, "targets": {"none": "targets", "wolves": "all"}}[side][learners]
+    return driven, p
