@@ -193,6 +193,13 @@ class TrainedModel:
         name = run.name if self.path.name == MODEL_FILE else f"{run.name}/{self.path.stem}"
         return f"{kind}:{name}"
 
+    @property
+    def action_mode(self) -> str:
+        """The mode its actions are in: its side's own ``env.*_action_mode`` in its params, else
+        ``env.action_mode``."""
+        env = self.params["env"]
+        return env.get("wolf_action_mode" if self.side == "wolves" else "target_action_mode") or env["action_mode"]
+
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         """Actions for a batch of observations [..., D] → [..., 2] (float32)."""
         flat = obs.reshape(-1, obs.shape[-1])
@@ -438,6 +445,43 @@ def evaluate_model(m: TrainedModel, *, episodes: int, seed: int, threads: int | 
         return report(results, m.label, m.params["policies"]["targets"])
     results = rollout(m.params, episodes=episodes, seed=seed, targets=act, threads=threads, progress=progress)
     return report(results, m.params["policies"]["wolves"], m.label)
+
+
+#: A player of one side in an evaluation: a scripted law's name or a model.
+Player = "str | TrainedModel"
+
+
+def player_name(who) -> str:
+    return who if isinstance(who, str) else who.label
+
+
+def pairing_params(base: dict, wolves, targets) -> dict:
+    """``base`` with each side's driver: a law's name sets ``policies.<side>``, a model sets its
+    side's action mode to the model's own (so that models trained in different modes meet)."""
+    p = json.loads(json.dumps(base))
+    for side, who in (("wolves", wolves), ("targets", targets)):
+        if isinstance(who, str):
+            p["policies"][side] = who
+        else:
+            if who.side != side:
+                raise UsageError(f"{who.label} is a model of the {who.side}, not of the {side}")
+            p["env"]["wolf_action_mode" if side == "wolves" else "target_action_mode"] = who.action_mode
+    return _core.validate_params(p)
+
+
+def play(base: dict, wolves, targets, *, episodes: int, seed: int, threads: int | None = 1, deterministic: bool = True, progress=None) -> list[dict]:
+    """Episodes ``seed ..`` (as :func:`rollout`) of ``wolves`` against ``targets`` (each a law's
+    name or a :class:`TrainedModel`) on ``base``'s scenario; a model whose observation size does
+    not fit ``base`` is a UsageError naming both sizes."""
+    params = pairing_params(base, wolves, targets)
+    policies = {}
+    for side, who in (("wolves", wolves), ("targets", targets)):
+        if not isinstance(who, str):
+            ours, theirs = observation_size(params, side), int(who.model.observation_space.shape[0])
+            if ours != theirs:
+                raise UsageError(f"{who.label} takes {theirs} observations, the {side} of this scenario have {ours}")
+            policies[side] = lambda obs, m=who: m.act(obs, deterministic)
+    return rollout(params, episodes=episodes, seed=seed, threads=threads, progress=progress, **policies)
 
 
 class Stopwatch:

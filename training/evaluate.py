@@ -15,6 +15,19 @@ mean energy (J per episode, all agents), mean
 return per agent of each side (the env's rewards, undiscounted), and the median distance of the
 target to the nearest wall when the episode ended (pinned to a wall, a target is hard to ring).
 
+Cross-play (--matrix): every wolf policy — the analytic laws seed000, bvc and formation and every
+wolf MODEL — against every target policy — escape, random, still and every target MODEL — on the
+same episodes of one scenario (--params/--set; default the documented one; each model acts in
+its own action mode, so models trained in different modes meet). A MODEL may also be a league
+folder of selfplay.py (every learned member joins). Per cell the columns above; then each
+policy's worst case over all its opponents (the robustness column: a wolf policy's lowest
+capture rate, a target policy's lowest survival rate). Cells run in parallel on --jobs
+processes (default: all cores); the scripted-vs-scripted cells are exactly ``wolfpack hunt``'s
+episodes. With --out: DIR/matrix.md, DIR/matrix.json and DIR/matrix.png (a heat map of capture
+rates with the worst cases beside it).
+
+    python training/evaluate.py --matrix --episodes 200 --out runs/matrix results/models/* results/league
+
 Output: a Markdown table on stdout, or with --json one JSON object ``{"episodes", "seed",
 "rows": [{"wolves": "seed000", "targets": "escape", ...}, ...], "skipped": [...]}``. With
 --out DIR: DIR/results.md, DIR/results.json, DIR/capture_rates.png (bars with intervals) and
@@ -26,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -38,6 +52,8 @@ from common import (  # noqa: E402
     evaluate_model,
     load_model,
     model_policies,
+    play,
+    player_name,
     positive_int,
     prepare_out,
     record_episode,
@@ -153,12 +169,199 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-scripted", action="store_true", help="evaluate the models only")
     p.add_argument("--stochastic", action="store_true", help="sample model actions instead of taking the mean")
     p.add_argument("--threads", type=positive_int, default=None, help="native worker threads (default all cores; results do not depend on it)")
+    p.add_argument("--matrix", action="store_true", help="cross-play: every wolf policy against every target policy (laws and MODELs) in one scenario")
+    p.add_argument("--jobs", type=positive_int, default=None, help="--matrix: cells evaluated in parallel processes (default: all cores)")
     return p
+
+
+# --- cross-play ------------------------------------------------------------------------------
+
+MATRIX_KEYS = ("wolves", "targets", "episodes", "first_seed", "capture_rate", "capture_rate_ci95", "survival_rate", "median_capture_steps", "mean_capture_steps",
+               "collision_rate", "target_collision_rate", "timeout_rate", "cornered_rate", "success_rate", "ever_cornered_rate", "mean_energy",
+               "mean_return_wolves", "mean_return_targets", "median_final_target_wall_distance")
+
+
+def expand_models(paths: list[str]) -> list[str]:
+    """Run folders and zips as they are; a selfplay.py league folder becomes its learned
+    members (those it trained; the models it borrowed are given on their own)."""
+    out = []
+    for p in paths:
+        league = Path(p) / "league.json"
+        if league.is_file():
+            doc = json.loads(league.read_text())
+            out += [str(Path(p) / m["path"]) for m in doc["members"] if m["kind"] == "model" and not m.get("fixed")]
+        else:
+            out.append(p)
+    return out
+
+
+_LOADED: dict = {}
+
+
+def _player(spec: str):
+    """A law's name as it is, a model path loaded (once per process)."""
+    if spec in ("seed000", "bvc", "formation", "escape", "random", "still"):
+        return spec
+    if spec not in _LOADED:
+        _LOADED[spec] = load_model(spec)
+    return _LOADED[spec]
+
+
+def _worker_start() -> None:
+    import torch
+
+    torch.set_num_threads(1)
+
+
+def matrix_cell(job: tuple) -> dict:
+    """One cell: (base params, wolf spec, target spec, episodes, seed, deterministic) → its
+    report row (process-pool worker)."""
+    base, w, t, episodes, seed, deterministic = job
+    wolves, targets = _player(w), _player(t)
+    results = play(base, wolves, targets, episodes=episodes, seed=seed, threads=1, deterministic=deterministic)
+    r = report(results, player_name(wolves), player_name(targets))
+    row = {k: r[k] for k in MATRIX_KEYS}
+    row["capture_steps"] = r["capture_steps"]
+    return row
+
+
+def robustness(cells: list[dict], wolves: list[str], targets: list[str]) -> dict:
+    """Each policy's worst case over its opponents: a wolf policy's lowest capture rate (and the
+    target that held it there), a target policy's lowest survival rate."""
+    by = {(c["wolves"], c["targets"]): c for c in cells}
+    out = {"wolves": {}, "targets": {}}
+    for w in wolves:
+        worst = min(targets, key=lambda t: by[(w, t)]["capture_rate"])
+        out["wolves"][w] = {"worst_capture_rate": by[(w, worst)]["capture_rate"], "against": worst, "worst_collision_rate": max(by[(w, t)]["collision_rate"] for t in targets)}
+    for t in targets:
+        worst = max(wolves, key=lambda w: by[(w, t)]["capture_rate"])
+        out["targets"][t] = {"worst_survival_rate": 1.0 - by[(worst, t)]["capture_rate"], "against": worst}
+    return out
+
+
+def matrix_markdown(doc: dict) -> str:
+    by = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
+    wolves, targets, rob = doc["wolves"], doc["targets"], doc["robustness"]
+    lines = [f"Capture rate (95 % interval) · wolf collisions; {doc['episodes']} episodes per cell, seeds {doc['seed']}–{doc['seed'] + doc['episodes'] - 1}.", "",
+             "| wolves \\ targets | " + " | ".join(targets) + " | worst case (capture) |", "|---|" + "---|" * (len(targets) + 1)]
+    for w in wolves:
+        cells = []
+        for t in targets:
+            c = by[(w, t)]
+            lo, hi = c["capture_rate_ci95"]
+            cells.append(f"{c['capture_rate']:.1%} ({lo:.0%}–{hi:.0%}) · {c['collision_rate']:.1%}")
+        r = rob["wolves"][w]
+        cells.append(f"**{r['worst_capture_rate']:.1%}** vs {r['against']}")
+        lines.append(f"| {w} | " + " | ".join(cells) + " |")
+    lines.append("| worst case (survival) | " + " | ".join(f"**{rob['targets'][t]['worst_survival_rate']:.1%}** vs {rob['targets'][t]['against']}" for t in targets) + " | |")
+    lines += ["", "Every cell, every column:", "", markdown(doc["cells"])]
+    return "\n".join(lines)
+
+
+def matrix_plot(doc: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    wolves, targets, rob = doc["wolves"], doc["targets"], doc["robustness"]
+    by = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
+    grid = np.array([[by[(w, t)]["capture_rate"] for t in targets] for w in wolves]) * 100
+    fig = plt.figure(figsize=(2.4 + 1.35 * (len(targets) + 1), 1.6 + 0.75 * (len(wolves) + 1)), layout="constrained")
+    gs = fig.add_gridspec(2, 2, width_ratios=[len(targets), 1], height_ratios=[len(wolves), 1])
+    ax, side, bottom = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, 0])
+
+    def shade(value: float) -> str:
+        return "white" if value < 60 else "black"
+
+    im = ax.imshow(grid, cmap="viridis", vmin=0, vmax=100, aspect="auto")
+    for i, w in enumerate(wolves):
+        for j, t in enumerate(targets):
+            c = by[(w, t)]
+            ax.text(j, i, f"{c['capture_rate']:.0%}\ncoll {c['collision_rate']:.0%}", ha="center", va="center", fontsize=8, color=shade(grid[i, j]))
+    ax.set_xticks(range(len(targets)), [])
+    ax.set_yticks(range(len(wolves)), wolves, fontsize=8)
+    ax.set_ylabel("wolf policy")
+    ax.set_title(f"capture rate, {doc['episodes']} episodes per cell (same seeds)", fontsize=9)
+    worst = np.array([[rob["wolves"][w]["worst_capture_rate"] * 100] for w in wolves])
+    side.imshow(worst, cmap="viridis", vmin=0, vmax=100, aspect="auto")
+    for i, w in enumerate(wolves):
+        side.text(0, i, f"{worst[i, 0]:.0f}%\nvs {rob['wolves'][w]['against']}", ha="center", va="center", fontsize=7, color=shade(worst[i, 0]))
+    side.set_xticks([])
+    side.set_yticks([])
+    side.set_title("wolves' worst case\n(lowest capture)", fontsize=8)
+    # The targets' worst case as the capture rate it means, on the same colour scale.
+    survival = np.array([[rob["targets"][t]["worst_survival_rate"] * 100 for t in targets]])
+    bottom.imshow(100 - survival, cmap="viridis", vmin=0, vmax=100, aspect="auto")
+    for j, t in enumerate(targets):
+        bottom.text(j, 0, f"survives {survival[0, j]:.0f}%\nvs {rob['targets'][t]['against']}", ha="center", va="center", fontsize=7, color=shade(100 - survival[0, j]))
+    bottom.set_xticks(range(len(targets)), targets, rotation=30, ha="right", fontsize=8)
+    bottom.set_yticks([0], ["targets' worst\ncase"], fontsize=8)
+    bottom.set_xlabel("target policy")
+    fig.colorbar(im, ax=[ax, side, bottom], label="capture rate (%)", shrink=0.8)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def run_matrix(args, base: dict, model_paths: list[str], out: Path | None) -> int:
+    import concurrent.futures as cf
+    import multiprocessing
+
+    from tqdm import tqdm
+
+    wolf_laws, target_laws, skipped = available_laws(base)
+    models = [(p, load_model(p)) for p in model_paths]
+    wolf_specs = wolf_laws + [p for p, m in models if m.side == "wolves"]
+    target_specs = target_laws + [p for p, m in models if m.side == "targets"]
+    names = {p: m.label for p, m in models}
+    for p, m in models:  # fail before any work: every model must fit the scenario
+        try:
+            play(base, m if m.side == "wolves" else wolf_laws[0], m if m.side == "targets" else target_laws[0], episodes=1, seed=args.seed, threads=1)
+        except UsageError as e:
+            raise UsageError(f"--matrix: {e}") from None
+    jobs = [(base, w, t, args.episodes, args.seed, not args.stochastic) for w in wolf_specs for t in target_specs]
+    workers = min(len(jobs), args.jobs or os.cpu_count() or 1)
+    cells: list[dict | None] = [None] * len(jobs)
+    with tqdm(total=len(jobs), unit="cell", desc="cross-play", disable=args.json or not sys.stderr.isatty()) as bar:
+        if workers == 1:
+            _worker_start()
+            for i, job in enumerate(jobs):
+                cells[i] = matrix_cell(job)
+                bar.update(1)
+        else:
+            with cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_start) as pool:
+                futures = {pool.submit(matrix_cell, job): i for i, job in enumerate(jobs)}
+                try:
+                    for f in cf.as_completed(futures):
+                        cells[futures[f]] = f.result()
+                        bar.update(1)
+                except BaseException:
+                    pool.shutdown(wait=False, cancel_futures=True)
+                    raise
+    wolves = [names.get(w, w) for w in wolf_specs]
+    targets = [names.get(t, t) for t in target_specs]
+    doc = {"episodes": args.episodes, "seed": args.seed, "params": base, "wolves": wolves, "targets": targets, "models": {names[p]: str(p) for p, _ in models},
+           "cells": cells, "robustness": robustness(cells, wolves, targets), "skipped": skipped}
+    table = matrix_markdown(doc)
+    if out is not None:
+        (out / "matrix.md").write_text(table + "\n")
+        (out / "matrix.json").write_text(json.dumps(doc, indent=1) + "\n")
+        matrix_plot(doc, out / "matrix.png")
+    if args.json:
+        print(json.dumps(doc))
+    else:
+        print(table)
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if args.matrix:
+            base = env_params(args.params, args.sets)
+            out = prepare_out(args.out) if args.out else None
+            return run_matrix(args, base, expand_models(args.models), out)
         models = [load_model(m) for m in args.models]
         base = env_params(args.params, args.sets)
         out = prepare_out(args.out) if args.out else None

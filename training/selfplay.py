@@ -1,0 +1,454 @@
+"""A self-play league: wolves and targets trained against each other.
+
+    python training/selfplay.py --out runs/league --generations 6 --time-limit 60
+    python training/selfplay.py --out runs/league --resume --generations 8 --time-limit 30
+
+Alternating best responses against a pool. Generation k trains one side (they alternate,
+``--first`` first) with PPO on the native VecEnv against opponents drawn from the other side's
+pool: its analytic laws as fixed members (seed000, bvc, formation / escape, random, still;
+``--fixed-wolves`` / ``--fixed-targets`` choose) plus every frozen model of that side so far.
+An opponent is drawn at the start of every PPO rollout and swapped in without resetting any
+world (``VecEnv.set_opponent``):
+
+  latest       the other side's newest member (its last fixed law before any model exists)
+  uniform      every member alike
+  prioritised  prioritised fictitious self-play: weight (1 − w)² + 0.02, w the learner's
+               win rate against that member in the league table (0.5 when not yet measured),
+               so the opponents it still loses to are met most
+
+The learner starts from its side's latest member, else from ``--init-wolves`` /
+``--init-targets`` (a run folder of train.py or imitate.py), else from a fresh policy. At the
+end of its generation it is frozen as a new member and evaluated against every member of the
+other side on held-out episodes (seeds 500000 + k, never trained on); those win rates feed
+prioritised sampling and the league table. Win rate: a wolf member's capture rate, a target
+member's survival rate (1 − capture rate).
+
+The time budget (``--time-limit`` minutes, for this invocation) is shared out evenly over the
+generations still to run; ``--timesteps`` caps each generation. Ctrl-C stops at once; the
+league file only ever holds finished generations, and ``--resume`` starts the interrupted one
+again from its side's latest member.
+
+Writes into --out (refused if it holds a league, unless --resume):
+  league.json        members (name, side, kind, generation, timesteps, wall time, path),
+                     generations (side, timesteps, wall time, opponents drawn and how often),
+                     evaluations (every pair measured: capture rate with 95 % interval,
+                     collisions, median capture step), the arguments and the scenario
+  members/<name>/    model.zip + config.yaml of every learned member (evaluate.py, opponent=
+                     and train.py --init-from read them)
+  generations/<k>/   SB3's logs of generation k (progress.csv, TensorBoard)
+  league.md          the league table (each member's win rate against each opposing member)
+  league_curves.png  win rates of each generation's member against the fixed laws and the
+                     learned opponents, and the training return of every generation
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import shlex
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import (  # noqa: E402
+    HELD_OUT_SEED,
+    HYPERPARAMS_PATH,
+    MODEL_FILE,
+    SIDES,
+    TARGET_LAWS,
+    TRAIN_SEED_BASE,
+    WOLF_LAWS,
+    TrainedModel,
+    UsageError,
+    env_params,
+    hyperparams,
+    load_model,
+    observation_size,
+    pairing_params,
+    play,
+    positive_float,
+    positive_int,
+    prepare_out,
+    report,
+    sb3_kwargs,
+    seed_int,
+    versions,
+    write_config,
+)
+
+LEAGUE_FILE = "league.json"
+SAMPLING = ("latest", "uniform", "prioritised")
+OTHER = {"wolves": "targets", "targets": "wolves"}
+#: PFSP's floor: a member the learner always beats is still met now and then.
+PFSP_FLOOR = 0.02
+
+
+def laws_arg(side: str):
+    allowed = WOLF_LAWS if side == "wolves" else TARGET_LAWS
+
+    def parse(text: str) -> list[str]:
+        laws = [t for t in text.split(",") if t]
+        bad = [t for t in laws if t not in allowed]
+        if bad:
+            raise argparse.ArgumentTypeError(f"unknown {side} law {bad[0]!r} (one of {', '.join(allowed)})")
+        return laws
+
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="selfplay.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", required=True, help="the league folder")
+    p.add_argument("--resume", action="store_true", help="go on with the league in --out (its scenario and fixed members)")
+    p.add_argument("--generations", type=positive_int, default=6, help="generations in the league in all (default 6; with --resume: the new total)")
+    p.add_argument("--time-limit", type=positive_float, default=None, metavar="MIN", help="wall-clock minutes for this invocation, shared over the generations still to run")
+    p.add_argument("--timesteps", type=positive_int, default=20_000_000, help="most timesteps (agent-steps) per generation (default 2e7; the time limit usually ends a generation first)")
+    p.add_argument("--first", choices=SIDES, default="targets", help="the side of generation 1 (default targets)")
+    p.add_argument("--pool-sampling", choices=SAMPLING, default="prioritised", help="how each rollout's opponent is drawn (default prioritised)")
+    p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=list(WOLF_LAWS), metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
+    p.add_argument("--fixed-targets", type=laws_arg("targets"), default=["escape"], metavar="LAWS", help="comma-separated target laws in the pool (default escape; random and still teach wolves little)")
+    p.add_argument("--member", dest="members", action="append", default=[], metavar="RUN", help="an existing model (run folder) as a fixed member of its side's pool (repeatable)")
+    p.add_argument("--init-wolves", default=None, metavar="RUN", help="the wolves' first learner starts from this model (train.py/imitate.py run folder)")
+    p.add_argument("--init-targets", default=None, metavar="RUN", help="the targets' first learner starts from this model")
+    p.add_argument("--eval-episodes", type=positive_int, default=100, help="held-out episodes per evaluated pair (default 100)")
+    p.add_argument("--num-envs-wolves", type=positive_int, default=None, help="worlds while wolves learn (default hyperparams.yaml's)")
+    p.add_argument("--num-envs-targets", type=positive_int, default=None, help="worlds while targets learn (default hyperparams.yaml's)")
+    p.add_argument("--params", default=None, help="params YAML of the league's scenario (default: the documented scenario)")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
+    p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="PPO hyperparameter override (repeatable; hyperparams.yaml has the defaults)")
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the league (training worlds, PPO, sampling; default 0)")
+    p.add_argument("--threads", type=positive_int, default=1, help="native worker threads (default 1)")
+    p.add_argument("--torch-threads", type=positive_int, default=1, help="torch threads (default 1)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+# --- the league file ---------------------------------------------------------------------------
+
+
+def write_league(out: Path, league: dict) -> None:
+    """league.json, replaced atomically: an interruption never leaves half a file."""
+    tmp = out / f".{LEAGUE_FILE}.tmp"
+    tmp.write_text(json.dumps(league, indent=1) + "\n")
+    os.replace(tmp, out / LEAGUE_FILE)
+
+
+def new_league(args, params: dict) -> dict:
+    fixed = [{"name": law, "side": "wolves", "kind": "scripted", "generation": 0} for law in args.fixed_wolves]
+    fixed += [{"name": law, "side": "targets", "kind": "scripted", "generation": 0} for law in args.fixed_targets]
+    for run in args.members:
+        m = load_model(run)
+        fixed.append({"name": Path(run).resolve().name, "side": m.side, "kind": "model", "generation": 0, "path": str(Path(run).resolve()), "fixed": True})
+    names = [m["name"] for m in fixed]
+    if len(set(names)) != len(names):
+        raise UsageError(f"two fixed members share a name: {sorted(n for n in names if names.count(n) > 1)[0]!r}")
+    return {
+        "format": 1,
+        "params": params,
+        "first": args.first,
+        "seed": args.seed,
+        "init": {"wolves": args.init_wolves, "targets": args.init_targets},
+        "members": fixed,
+        "generations": [],
+        "evaluations": [],
+        "commands": [],
+    }
+
+
+def members_of(league: dict, side: str) -> list[dict]:
+    return [m for m in league["members"] if m["side"] == side]
+
+
+def win_rate(league: dict, member: str, side: str, opponent: str) -> float | None:
+    """``member``'s (of ``side``) win rate against ``opponent`` in the league table, or None."""
+    for e in league["evaluations"]:
+        if (e["wolves"], e["targets"]) == ((member, opponent) if side == "wolves" else (opponent, member)):
+            return e["capture_rate"] if side == "wolves" else 1.0 - e["capture_rate"]
+    return None
+
+
+def sampling_weights(league: dict, side: str, learner: str | None, pool: list[dict], how: str) -> list[float]:
+    if how == "latest":
+        newest = max(range(len(pool)), key=lambda i: (pool[i]["generation"], i))
+        return [1.0 if i == newest else 0.0 for i in range(len(pool))]
+    if how == "uniform" or learner is None:
+        return [1.0] * len(pool)
+    rates = [win_rate(league, learner, side, m["name"]) for m in pool]
+    return [(1.0 - (0.5 if w is None else w)) ** 2 + PFSP_FLOOR for w in rates]
+
+
+# --- one generation ----------------------------------------------------------------------------
+
+
+class Member:
+    """A pool member ready to play: a law's name or a loaded model."""
+
+    def __init__(self, entry: dict, out: Path) -> None:
+        self.entry = entry
+        self.name = entry["name"]
+        self.model: TrainedModel | None = None
+        if entry["kind"] == "model":
+            self.model = load_model(out / entry["path"])
+
+    @property
+    def player(self):
+        return self.name if self.model is None else self.model
+
+    def opponent(self):
+        """What ``set_opponent`` takes: the law's name, or the model in its own action mode."""
+        import wolfpack
+
+        if self.model is None:
+            return self.name
+        return wolfpack.Opponent(self.model.model, side=self.model.side, action_mode=self.model.action_mode, name=self.name)
+
+
+def member_config(side: str, params: dict, mode: str, hp: dict, extra: dict) -> dict:
+    """A member's config.yaml: what training/common.load_model needs (side, algo, params in the
+    member's own action mode, hyperparameters) plus where it came from."""
+    p = json.loads(json.dumps(params))
+    p["env"]["action_mode"] = mode
+    p["env"]["wolf_action_mode" if side == "wolves" else "target_action_mode"] = mode
+    return {"side": side, "algo": "ppo", "params": p, "hyperparams": hp, "league_member": extra, "versions": versions()}
+
+
+def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: float | None, rng: random.Random) -> dict | None:
+    """Trains generation ``k`` (``side``) and freezes it as a member; None when interrupted
+    before anything was learned."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    import wolfpack
+
+    params = league["params"]
+    pool = [Member(m, out) for m in members_of(league, OTHER[side])]
+    learned = [m for m in members_of(league, side) if m["kind"] == "model"]
+    start = load_model(out / learned[-1]["path"]) if learned else (load_model(league["init"][side]) if league["init"][side] else None)
+    start_name = learned[-1]["name"] if learned else None
+    mode = start.action_mode if start is not None else (params["env"].get("wolf_action_mode" if side == "wolves" else "target_action_mode") or params["env"]["action_mode"])
+    train_params = json.loads(json.dumps(params))
+    train_params["env"]["wolf_action_mode" if side == "wolves" else "target_action_mode"] = mode
+    if start is not None and int(start.model.observation_space.shape[0]) != observation_size(train_params, side):
+        raise UsageError(f"{start.label} takes {start.model.observation_space.shape[0]} observations, the {side} of the league's scenario have {observation_size(train_params, side)}")
+    hp = hyperparams("ppo", start is not None, args.hps)
+    if start is not None:
+        hp["policy_kwargs"] = start.config.get("hyperparams", {}).get("policy_kwargs", hp.get("policy_kwargs", {}))
+    table = __import__("yaml").safe_load(HYPERPARAMS_PATH.read_text())
+    num_envs = (args.num_envs_wolves if side == "wolves" else args.num_envs_targets) or int(table["num_envs"][side])
+
+    torch.set_num_threads(args.torch_threads)
+    set_random_seed(args.seed + k)
+    weights = sampling_weights(league, side, start_name, [m.entry for m in pool], args.pool_sampling)
+    drawn: dict[str, int] = {}
+
+    def draw():
+        m = rng.choices(pool, weights=weights)[0]
+        drawn[m.name] = drawn.get(m.name, 0) + 1
+        return m
+
+    first = draw()
+    venv = wolfpack.make_vec_env(train_params, num_envs=num_envs, learners=side, seed=TRAIN_SEED_BASE * (args.seed + 1) + 10_000 * k, threads=args.threads, opponent=first.opponent())
+    env = VecMonitor(venv)
+    model = PPO("MlpPolicy", env, seed=args.seed + k, device="cpu", verbose=0, **sb3_kwargs(hp))
+    if start is not None:
+        model.policy.load_state_dict(start.model.policy.state_dict())
+    logs = out / "generations" / f"{k:02d}"
+    logs.mkdir(parents=True, exist_ok=True)
+    model.set_logger(configure(str(logs), ["csv", "tensorboard"]))
+
+    class League(BaseCallback):
+        """A new opponent at every rollout (the first rollout keeps the one drawn above); stops
+        learn() at the generation's deadline."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.rollouts = 0
+
+        def _on_rollout_start(self) -> None:
+            self.rollouts += 1
+            if self.rollouts > 1:
+                venv.set_opponent(draw().opponent())
+
+        def _on_step(self) -> bool:
+            return deadline is None or time.perf_counter() < deadline
+
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=args.timesteps, callback=League(), progress_bar=not args.no_progress and sys.stderr.isatty())
+    wall = time.perf_counter() - t0
+    if model.num_timesteps == 0:
+        return None
+    name = f"{side}_g{k:02d}"
+    folder = out / "members" / name
+    folder.mkdir(parents=True, exist_ok=True)
+    model.save(folder / MODEL_FILE)
+    extra = {"league": str(out), "generation": k, "started_from": start.label if start is not None else None, "timesteps": int(model.num_timesteps), "opponents_drawn": drawn}
+    write_config(folder, member_config(side, params, mode, hp, extra))
+    return {
+        "member": {"name": name, "side": side, "kind": "model", "generation": k, "path": f"members/{name}", "timesteps": int(model.num_timesteps), "wall_s": round(wall, 1), "action_mode": mode},
+        "generation": {"generation": k, "side": side, "timesteps": int(model.num_timesteps), "wall_s": round(wall, 1), "started_from": extra["started_from"], "sampling": args.pool_sampling, "weights": dict(zip([m.name for m in pool], weights)), "opponents_drawn": drawn, "stopped_by_time_limit": int(model.num_timesteps) < args.timesteps},
+    }
+
+
+def evaluate_member(args, out: Path, league: dict, entry: dict, progress=None, against: list[dict] | None = None) -> list[dict]:
+    """The new member against every member of the other side (or ``against``), on held-out
+    episodes."""
+    me = Member(entry, out)
+    rows = []
+    for other in members_of(league, OTHER[entry["side"]]) if against is None else against:
+        them = Member(other, out)
+        wolves, targets = (me, them) if entry["side"] == "wolves" else (them, me)
+        results = play(league["params"], wolves.player, targets.player, episodes=args.eval_episodes, seed=HELD_OUT_SEED, threads=args.threads)
+        r = report(results, wolves.name, targets.name)
+        rows.append({k: r[k] for k in ("wolves", "targets", "episodes", "first_seed", "capture_rate", "capture_rate_ci95", "collision_rate", "target_collision_rate", "median_capture_steps")})
+        if progress is not None:
+            progress(1)
+    return rows
+
+
+# --- reports -----------------------------------------------------------------------------------
+
+
+def league_table(league: dict) -> str:
+    """Markdown: wolf members (rows) × target members (columns), capture rates."""
+    wolves, targets = members_of(league, "wolves"), members_of(league, "targets")
+    lines = ["capture rate (held-out episodes; rows: wolves, columns: targets; blank: not played)", "",
+             "| wolves \\ targets | " + " | ".join(t["name"] for t in targets) + " |", "|---|" + "---|" * len(targets)]
+    for w in wolves:
+        cells = []
+        for t in targets:
+            rate = win_rate(league, w["name"], "wolves", t["name"])
+            cells.append("" if rate is None else f"{rate:.0%}")
+        lines.append(f"| {w['name']} | " + " | ".join(cells) + " |")
+    lines += ["", "| generation | side | timesteps | wall (min) | started from | opponents drawn |", "|---|---|---|---|---|---|"]
+    for g in league["generations"]:
+        drawn = ", ".join(f"{k} ×{v}" for k, v in sorted(g["opponents_drawn"].items(), key=lambda kv: -kv[1]))
+        lines.append(f"| {g['generation']} | {g['side']} | {g['timesteps']:,} | {g['wall_s'] / 60:.1f} | {g['started_from'] or 'fresh'} | {drawn} |")
+    return "\n".join(lines) + "\n"
+
+
+def league_curves(out: Path, league: dict) -> None:
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from wolfpack.plots import line_styles
+
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.6), layout="constrained")
+    for ax, side in zip(axes[:2], SIDES):
+        mine = [m for m in members_of(league, side) if m["kind"] == "model"]
+        theirs = members_of(league, OTHER[side])
+        for opp, (colour, style) in zip(theirs, line_styles(len(theirs))):
+            pts = [(m["generation"], win_rate(league, m["name"], side, opp["name"])) for m in mine]
+            pts = [(g, 100 * w) for g, w in pts if w is not None]
+            if pts:
+                ax.plot(*zip(*pts), marker="o", color=colour, linestyle=style, label=f"vs {opp['name']}")
+        ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out)")
+        ax.set_xlabel("generation")
+        ax.set_ylabel("%")
+        ax.set_ylim(-2, 102)
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    ax = axes[2]
+    offset = 0
+    for g in league["generations"]:
+        path = out / "generations" / f"{g['generation']:02d}" / "progress.csv"
+        if not path.is_file():
+            continue
+        with path.open() as f:
+            rows = [r for r in csv.DictReader(f) if r.get("rollout/ep_rew_mean")]
+        if rows:
+            xs = [offset + float(r["time/total_timesteps"]) / 1e6 for r in rows]
+            ax.plot(xs, [float(r["rollout/ep_rew_mean"]) for r in rows], color="tab:red" if g["side"] == "wolves" else "tab:blue")
+        offset += g["timesteps"] / 1e6
+    ax.set_title("training return per episode (red: wolves, blue: targets)")
+    ax.set_xlabel("league timesteps (millions)")
+    ax.grid(alpha=0.3)
+    fig.savefig(out / "league_curves.png", dpi=120)
+    plt.close(fig)
+
+
+# --- main --------------------------------------------------------------------------------------
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        out = Path(args.out)
+        if (out / LEAGUE_FILE).is_file():
+            if not args.resume:
+                raise UsageError(f"--out {out} already holds a league ({LEAGUE_FILE}); --resume to go on with it, or choose another folder")
+            league = json.loads((out / LEAGUE_FILE).read_text())
+            if args.params is not None or args.sets:
+                raise UsageError("--resume goes on in the league's own scenario: no --params/--set")
+        else:
+            if args.resume:
+                raise UsageError(f"--resume: no {LEAGUE_FILE} in {out}")
+            for init in (args.init_wolves, args.init_targets):
+                if init is not None:
+                    load_model(init)  # fails early, naming the file
+            league = new_league(args, env_params(args.params, args.sets))
+        prepare_out(out)
+    except (UsageError, ValueError) as e:
+        print(f"selfplay.py: error: {e}", file=sys.stderr)
+        return 2
+
+    from tqdm import tqdm
+
+    league["commands"].append(" ".join(shlex.quote(a) for a in ["python", "training/selfplay.py", *(sys.argv[1:] if argv is None else argv)]))
+    if not league["generations"] and not league["evaluations"]:
+        # The fixed members against each other once: the table's first rows, PFSP's first rates.
+        fixed_wolves, fixed_targets = members_of(league, "wolves"), members_of(league, "targets")
+        with tqdm(total=len(fixed_wolves) * len(fixed_targets), unit="pair", desc="fixed members", disable=args.no_progress or not sys.stderr.isatty()) as bar:
+            for w in fixed_wolves:
+                league["evaluations"].extend(evaluate_member(args, out, league, w, bar.update, against=fixed_targets))
+    write_league(out, league)
+    start = time.perf_counter()
+    end = None if args.time_limit is None else start + 60 * args.time_limit
+    rng = random.Random(league["seed"] * 1_000_003 + len(league["generations"]))
+    try:
+        while len(league["generations"]) < args.generations:
+            k = len(league["generations"]) + 1
+            side = league["first"] if k % 2 == 1 else OTHER[league["first"]]
+            left = args.generations - k + 1
+            # This generation's share of what is left, keeping ~10 % of it for the evaluations.
+            deadline = None if end is None else time.perf_counter() + 0.9 * max(0.0, end - time.perf_counter()) / left
+            if end is not None and end - time.perf_counter() < 30:
+                print(f"selfplay.py: time limit reached before generation {k}", file=sys.stderr)
+                break
+            print(f"generation {k}/{args.generations}: {side} learn ({args.pool_sampling} opponents)", file=sys.stderr)
+            done = run_generation(args, out, league, k, side, deadline, rng)
+            if done is None:
+                break
+            entry = done["member"]
+            pool_size = len(members_of(league, OTHER[side]))
+            with tqdm(total=pool_size, unit="pair", desc=f"evaluate {entry['name']}", disable=args.no_progress or not sys.stderr.isatty()) as bar:
+                rows = evaluate_member(args, out, league, entry, bar.update)
+            league["members"].append(entry)
+            league["generations"].append(done["generation"])
+            league["evaluations"].extend(rows)
+            write_league(out, league)
+            (out / "league.md").write_text(league_table(league))
+            league_curves(out, league)
+            rates = ", ".join(f"{r['targets'] if side == 'wolves' else r['wolves']} {100 * (r['capture_rate'] if side == 'wolves' else 1 - r['capture_rate']):.0f} %" for r in rows)
+            print(f"  {entry['name']}: {entry['timesteps']:,} timesteps in {entry['wall_s'] / 60:.1f} min; {'capture' if side == 'wolves' else 'survival'}: {rates}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print(f"selfplay.py: interrupted; {LEAGUE_FILE} holds the {len(league['generations'])} finished generations (--resume goes on)", file=sys.stderr)
+        return 130
+    print(f"league: {len(league['generations'])} generations, {len(league['members'])} members; {out / LEAGUE_FILE}, {out / 'league.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
