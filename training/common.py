@@ -34,6 +34,7 @@ import wolfpack
 from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
+from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, find_model, run_label
 from wolfpack.episodes import summarize
 
 SIDES = ("wolves", "targets")
@@ -43,8 +44,6 @@ TRAIN_SEED_BASE = 1_000_000
 IMITATION_SEED_BASE = 100_000_000
 HELD_OUT_SEED = 500_000
 HYPERPARAMS_PATH = Path(__file__).with_name("hyperparams.yaml")
-MODEL_FILE = "model.zip"
-CONFIG_FILE = "config.yaml"
 
 
 class UsageError(ValueError):
@@ -188,10 +187,7 @@ class TrainedModel:
     def label(self) -> str:
         """``<kind>:<run folder>``: kind ``imitation`` for imitate.py's models, else the algorithm
         (``ppo:wolves_ft``); checkpoints add their file name."""
-        kind = "imitation" if "imitation_of" in self.config else self.algo
-        run = self.path.parent if self.path.name in (MODEL_FILE, "best_model.zip") else self.path.parent.parent
-        name = run.name if self.path.name == MODEL_FILE else f"{run.name}/{self.path.stem}"
-        return f"{kind}:{name}"
+        return run_label(self.path, self.config)
 
     @property
     def action_mode(self) -> str:
@@ -210,14 +206,10 @@ class TrainedModel:
 def load_model(where: str | Path, device: str = "cpu") -> TrainedModel:
     """A model from a run folder (``DIR/model.zip`` + ``DIR/config.yaml``) or a ``.zip`` next to
     its run's ``config.yaml`` (checkpoints: the run folder is the zip's parent or grandparent)."""
-    path = Path(where)
-    if path.is_dir():
-        zip_path = path / MODEL_FILE
-    else:
-        zip_path = path if path.suffix == ".zip" else path.with_suffix(".zip")
-    if not zip_path.is_file():
-        raise UsageError(f"model {where}: no such model file ({zip_path})")
-    config_path = next((d / CONFIG_FILE for d in (zip_path.parent, zip_path.parent.parent) if (d / CONFIG_FILE).is_file()), None)
+    try:
+        zip_path, config_path = find_model(where)
+    except FileNotFoundError as e:
+        raise UsageError(f"model {where}: no such model file ({e})") from None
     if config_path is None:
         raise UsageError(f"model {where}: no {CONFIG_FILE} beside it or in its parent folder (which params was it trained on?)")
     config = yaml.safe_load(config_path.read_text())

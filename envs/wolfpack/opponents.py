@@ -49,12 +49,13 @@ def _law_side(name: str) -> str | None:
 
 
 def find_model(where: str | Path) -> tuple[Path, Path | None]:
-    """(the model's zip, its run's ``config.yaml`` or None) for a zip path or a run folder.
-    ValueError when there is no zip there."""
+    """(the model's zip, its run's ``config.yaml`` or None) for a zip path (``.zip`` may be left
+    out) or a run folder (``DIR/model.zip``); a checkpoint's run folder is its zip's parent or
+    grandparent. FileNotFoundError naming the zip when there is none."""
     path = Path(where)
     zip_path = path / MODEL_FILE if path.is_dir() else (path if path.suffix == ".zip" else path.with_suffix(".zip"))
     if not zip_path.is_file():
-        raise ValueError(f"opponent {str(where)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({zip_path})")
+        raise FileNotFoundError(zip_path)
     config = next((d / CONFIG_FILE for d in (zip_path.parent, zip_path.parent.parent) if (d / CONFIG_FILE).is_file()), None)
     return zip_path, config
 
@@ -79,7 +80,7 @@ def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
         raise ValueError(f"opponent {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
 
 
-def _run_label(zip_path: Path, config: dict) -> str:
+def run_label(zip_path: Path, config: dict) -> str:
     """``<kind>:<run folder>`` as training/evaluate.py names models (``ppo:wolves_ft``,
     ``imitation:wolves_bc``; a checkpoint adds its file: ``ppo:run/rollout_100000_steps``)."""
     kind = "imitation" if "imitation_of" in config else str(config.get("algo", "sb3"))
@@ -144,7 +145,10 @@ class Opponent:
             side, label = law_side, policy
         elif isinstance(policy, (str, Path)):
             self.kind = "model"
-            zip_path, config_path = find_model(policy)
+            try:
+                zip_path, config_path = find_model(policy)
+            except FileNotFoundError as e:
+                raise ValueError(f"opponent {str(policy)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({e})") from None
             if config_path is not None:
                 import yaml
 
@@ -158,7 +162,7 @@ class Opponent:
             env = (self.config.get("params") or {}).get("env") or {}
             own = env.get("wolf_action_mode" if side == "wolves" else "target_action_mode") if side else None
             mode = mode or own or env.get("action_mode")
-            label = _run_label(zip_path, self.config) if self.config else zip_path.stem
+            label = run_label(zip_path, self.config) if self.config else zip_path.stem
         elif callable(getattr(policy, "predict", None)) and hasattr(policy, "observation_space"):
             self.kind, self.model = "model", policy
             label = type(policy).__name__
