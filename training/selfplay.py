@@ -341,6 +341,8 @@ def league_curves(out: Path, league: dict) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import MaxNLocator
 
     from wolfpack.plots import line_styles
 
@@ -353,8 +355,11 @@ def league_curves(out: Path, league: dict) -> None:
             pts = [(g, 100 * w) for g, w in pts if w is not None]
             if pts:
                 ax.plot(*zip(*pts), marker="o", color=colour, linestyle=style, label=f"vs {opp['name']}")
-        ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out)")
+        ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out)", fontsize=10)
         ax.set_xlabel("generation")
+        last = max([g["generation"] for g in league["generations"]] + [1])
+        ax.set_xlim(0.5, last + 0.5)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_ylabel("%")
         ax.set_ylim(-2, 102)
         ax.grid(alpha=0.3)
@@ -372,7 +377,8 @@ def league_curves(out: Path, league: dict) -> None:
             xs = [offset + float(r["time/total_timesteps"]) / 1e6 for r in rows]
             ax.plot(xs, [float(r["rollout/ep_rew_mean"]) for r in rows], color="tab:red" if g["side"] == "wolves" else "tab:blue")
         offset += g["timesteps"] / 1e6
-    ax.set_title("training return per episode (red: wolves, blue: targets)")
+    ax.set_title("training return per episode", fontsize=10)
+    ax.legend(handles=[Line2D([], [], color="tab:red", label="wolves learn"), Line2D([], [], color="tab:blue", label="targets learn")], fontsize=7, loc="best")
     ax.set_xlabel("league timesteps (millions)")
     ax.grid(alpha=0.3)
     fig.savefig(out / "league_curves.png", dpi=120)
