@@ -137,12 +137,13 @@ def write_league(out: Path, league: dict) -> None:
     os.replace(tmp, out / LEAGUE_FILE)
 
 
-def new_league(args, params: dict) -> dict:
+def new_league(args, params: dict, out: Path) -> dict:
     fixed = [{"name": law, "side": "wolves", "kind": "scripted", "generation": 0} for law in args.fixed_wolves]
     fixed += [{"name": law, "side": "targets", "kind": "scripted", "generation": 0} for law in args.fixed_targets]
     for run in args.members:
         m = load_model(run)
-        fixed.append({"name": Path(run).resolve().name, "side": m.side, "kind": "model", "generation": 0, "path": str(Path(run).resolve()), "fixed": True})
+        # Relative to the league folder, so that the league can move with the repository.
+        fixed.append({"name": Path(run).resolve().name, "side": m.side, "kind": "model", "generation": 0, "path": os.path.relpath(Path(run).resolve(), out.resolve()), "fixed": True})
     names = [m["name"] for m in fixed]
     if len(set(names)) != len(names):
         raise UsageError(f"two fixed members share a name: {sorted(n for n in names if names.count(n) > 1)[0]!r}")
@@ -151,7 +152,7 @@ def new_league(args, params: dict) -> dict:
         "params": params,
         "first": args.first,
         "seed": args.seed,
-        "init": {"wolves": args.init_wolves, "targets": args.init_targets},
+        "init": {side: None if run is None else os.path.relpath(Path(run).resolve(), out.resolve()) for side, run in (("wolves", args.init_wolves), ("targets", args.init_targets))},
         "members": fixed,
         "generations": [],
         "evaluations": [],
@@ -231,7 +232,7 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     params = league["params"]
     pool = [Member(m, out) for m in members_of(league, OTHER[side])]
     learned = [m for m in members_of(league, side) if m["kind"] == "model"]
-    start = load_model(out / learned[-1]["path"]) if learned else (load_model(league["init"][side]) if league["init"][side] else None)
+    start = load_model(out / learned[-1]["path"]) if learned else (load_model(out / league["init"][side]) if league["init"][side] else None)
     start_name = learned[-1]["name"] if learned else None
     mode = start.action_mode if start is not None else (params["env"].get("wolf_action_mode" if side == "wolves" else "target_action_mode") or params["env"]["action_mode"])
     train_params = json.loads(json.dumps(params))
@@ -404,7 +405,7 @@ def main(argv: list[str] | None = None) -> int:
             for init in (args.init_wolves, args.init_targets):
                 if init is not None:
                     load_model(init)  # fails early, naming the file
-            league = new_league(args, env_params(args.params, args.sets))
+            league = new_league(args, env_params(args.params, args.sets), out)
         prepare_out(out)
     except (UsageError, ValueError) as e:
         print(f"selfplay.py: error: {e}", file=sys.stderr)
