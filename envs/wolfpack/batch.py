@@ -257,6 +257,9 @@ class BatchEnv:
         #: Entries of one world's global state row (see :meth:`state`).
         self.state_dim: int = self._core.state_dim
         self._check_opponent_fits(self.opponent)
+        if self.opponent is not None and self.opponent.learned:
+            # The worlds exist from construction on (a step before any reset is allowed).
+            self._opponent_obs = self._pop_opponent_obs(self._core.observe())
 
     # --- the opponent -------------------------------------------------------------------------
 
@@ -361,8 +364,6 @@ class BatchEnv:
             raise ValueError("target actions given, but the targets are not learners here")
         side = self.opponent_side if self.opponent is not None and self.opponent.learned else None
         if side is not None:
-            if self._opponent_obs is None:
-                raise RuntimeError("step() before reset(): the opponent has no observations to act on")
             if side == "wolves":
                 wa = self._opponent_actions()
             else:
