@@ -69,7 +69,7 @@ def test_selfplay_refuses_to_overwrite_and_resumes(league, capsys):
     assert selfplay.main(["--out", str(league), "--resume", "--generations", "3", *[a for a in TINY if a not in ("--set", "world.max_steps=60")]]) == 0
     after = json.loads((league / "league.json").read_text())
     assert after["members"][: len(before["members"])] == before["members"]
-    assert after["members"][-1]["name"] == "targets_g03" and after["generations"][-1]["started_from"] == "ppo:targets_g01"
+    assert after["members"][-1]["name"] == "targets_g03" and after["generations"][-1]["started_from"] == f"ppo:{league.name}/targets_g01"
     assert len(after["commands"]) == 2
 
 
@@ -123,7 +123,7 @@ def test_matrix_with_models_and_a_league(league, tmp_path):
                           str(MODELS / "wolves_ft"), str(MODELS / "escape_ppo"), str(league)]) == 0
     doc = json.loads((out / "matrix.json").read_text())
     # The league folder adds the members it trained (not escape_ppo, which it borrowed).
-    trained = [f"ppo:{m['name']}" for m in json.loads((league / "league.json").read_text())["members"] if m["kind"] == "model" and not m.get("fixed")]
+    trained = [f"ppo:{league.name}/{m['name']}" for m in json.loads((league / "league.json").read_text())["members"] if m["kind"] == "model" and not m.get("fixed")]
     assert doc["wolves"] == ["seed000", "bvc", "formation", "ppo:wolves_ft", *[t for t in trained if "wolves" in t]]
     assert doc["targets"] == ["escape", "random", "still", "ppo:escape_ppo", *[t for t in trained if "targets" in t]]
     assert len(doc["cells"]) == len(doc["wolves"]) * len(doc["targets"]) and (out / "matrix.png").stat().st_size > 20_000

@@ -315,6 +315,9 @@ def run_matrix(args, base: dict, model_paths: list[str], out: Path | None) -> in
     wolf_specs = wolf_laws + [p for p, m in models if m.side == "wolves"]
     target_specs = target_laws + [p for p, m in models if m.side == "targets"]
     names = {p: m.label for p, m in models}
+    labels = list(names.values())
+    if len(set(labels)) != len(labels):
+        raise UsageError(f"--matrix: two models share the name {next(x for x in labels if labels.count(x) > 1)!r} (given twice, or two run folders of the same name)")
     for p, m in models:  # fail before any work: every model must fit the scenario
         try:
             play(base, m if m.side == "wolves" else wolf_laws[0], m if m.side == "targets" else target_laws[0], episodes=1, seed=args.seed, threads=1)

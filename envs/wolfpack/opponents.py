@@ -82,8 +82,13 @@ def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
 
 def run_label(zip_path: Path, config: dict) -> str:
     """``<kind>:<run folder>`` as training/evaluate.py names models (``ppo:wolves_ft``,
-    ``imitation:wolves_bc``; a checkpoint adds its file: ``ppo:run/rollout_100000_steps``)."""
+    ``imitation:wolves_bc``; a checkpoint adds its file: ``ppo:run/rollout_100000_steps``; a
+    member of a selfplay.py league: ``ppo:<league folder>/<member>``)."""
     kind = "imitation" if "imitation_of" in config else str(config.get("algo", "sb3"))
+    league = (config.get("league_member") or {}).get("league")
+    if league and zip_path.name == MODEL_FILE:
+        # Every league names its members wolves_g02, targets_g01...: the league tells them apart.
+        return f"{kind}:{Path(league).name}/{zip_path.parent.name}"
     if zip_path.name == MODEL_FILE:
         return f"{kind}:{zip_path.parent.name}"
     run = zip_path.parent if (zip_path.parent / CONFIG_FILE).is_file() else zip_path.parent.parent
