@@ -359,7 +359,8 @@ def league_curves(out: Path, league: dict) -> None:
         ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out)", fontsize=10)
         ax.set_xlabel("generation")
         last = max([g["generation"] for g in league["generations"]] + [1])
-        ax.set_xlim(0.5, last + 0.5)
+        first = min([m["generation"] for m in mine] + [1])  # 0: a borrowed model (--member)
+        ax.set_xlim(first - 0.5, last + 0.5)
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_ylabel("%")
         ax.set_ylim(-2, 102)
@@ -376,9 +377,16 @@ def league_curves(out: Path, league: dict) -> None:
             rows = [r for r in csv.DictReader(f) if r.get("rollout/ep_rew_mean")]
         if rows:
             xs = [offset + float(r["time/total_timesteps"]) / 1e6 for r in rows]
-            ax.plot(xs, [float(r["rollout/ep_rew_mean"]) for r in rows], color="tab:red" if g["side"] == "wolves" else "tab:blue")
+            ys = [float(r["rollout/ep_rew_mean"]) for r in rows]
+            colour = "tab:red" if g["side"] == "wolves" else "tab:blue"
+            # Each rollout meets another opponent: the raw curve is noisy, its running mean
+            # over 20 rollouts is the trend.
+            ax.plot(xs, ys, color=colour, alpha=0.25, linewidth=0.8)
+            window = 20
+            smooth = [sum(ys[max(0, i - window + 1) : i + 1]) / len(ys[max(0, i - window + 1) : i + 1]) for i in range(len(ys))]
+            ax.plot(xs, smooth, color=colour, linewidth=1.8)
         offset += g["timesteps"] / 1e6
-    ax.set_title("training return per episode", fontsize=10)
+    ax.set_title("training return per episode (line: mean of 20 rollouts)", fontsize=10)
     ax.legend(handles=[Line2D([], [], color="tab:red", label="wolves learn"), Line2D([], [], color="tab:blue", label="targets learn")], fontsize=7, loc="best")
     ax.set_xlabel("league timesteps (millions)")
     ax.grid(alpha=0.3)
