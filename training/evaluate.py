@@ -269,11 +269,15 @@ def matrix_plot(doc: dict, path: Path) -> None:
     by = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
     grid = np.array([[by[(w, t)]["capture_rate"] for t in targets] for w in wolves]) * 100
     fig = plt.figure(figsize=(2.4 + 1.35 * (len(targets) + 1), 1.6 + 0.75 * (len(wolves) + 1)), layout="constrained")
-    gs = fig.add_gridspec(2, 2, width_ratios=[len(targets), 1], height_ratios=[len(wolves), 1])
+    gs = fig.add_gridspec(2, 2, width_ratios=[len(targets), 1.3], height_ratios=[len(wolves), 1])
     ax, side, bottom = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, 0])
 
     def shade(value: float) -> str:
         return "white" if value < 60 else "black"
+
+    def wrap(name: str) -> str:
+        """A long model name on two lines (``ppo:league/`` + ``targets_g05``)."""
+        return name.replace("/", "/\n", 1) if len(name) > 14 else name
 
     im = ax.imshow(grid, cmap="viridis", vmin=0, vmax=100, aspect="auto")
     for i, w in enumerate(wolves):
@@ -287,7 +291,7 @@ def matrix_plot(doc: dict, path: Path) -> None:
     worst = np.array([[rob["wolves"][w]["worst_capture_rate"] * 100] for w in wolves])
     side.imshow(worst, cmap="viridis", vmin=0, vmax=100, aspect="auto")
     for i, w in enumerate(wolves):
-        side.text(0, i, f"{worst[i, 0]:.0f}%\nvs {rob['wolves'][w]['against']}", ha="center", va="center", fontsize=7, color=shade(worst[i, 0]))
+        side.text(0, i, f"{worst[i, 0]:.0f}% vs\n{wrap(rob['wolves'][w]['against'])}", ha="center", va="center", fontsize=7, color=shade(worst[i, 0]))
     side.set_xticks([])
     side.set_yticks([])
     side.set_title("wolves' worst case\n(lowest capture)", fontsize=8)
@@ -295,7 +299,7 @@ def matrix_plot(doc: dict, path: Path) -> None:
     survival = np.array([[rob["targets"][t]["worst_survival_rate"] * 100 for t in targets]])
     bottom.imshow(100 - survival, cmap="viridis", vmin=0, vmax=100, aspect="auto")
     for j, t in enumerate(targets):
-        bottom.text(j, 0, f"survives {survival[0, j]:.0f}%\nvs {rob['targets'][t]['against']}", ha="center", va="center", fontsize=7, color=shade(100 - survival[0, j]))
+        bottom.text(j, 0, f"survives {survival[0, j]:.0f}%\nvs {wrap(rob['targets'][t]['against'])}", ha="center", va="center", fontsize=7, color=shade(100 - survival[0, j]))
     bottom.set_xticks(range(len(targets)), targets, rotation=30, ha="right", fontsize=8)
     bottom.set_yticks([0], ["targets' worst\ncase"], fontsize=8)
     bottom.set_xlabel("target policy")
