@@ -54,6 +54,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import yaml  # noqa: E402
+
 from common import (  # noqa: E402
     HELD_OUT_SEED,
     HYPERPARAMS_PATH,
@@ -68,7 +70,6 @@ from common import (  # noqa: E402
     hyperparams,
     load_model,
     observation_size,
-    pairing_params,
     play,
     positive_float,
     positive_int,
@@ -242,7 +243,7 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     hp = hyperparams("ppo", start is not None, args.hps)
     if start is not None:
         hp["policy_kwargs"] = start.config.get("hyperparams", {}).get("policy_kwargs", hp.get("policy_kwargs", {}))
-    table = __import__("yaml").safe_load(HYPERPARAMS_PATH.read_text())
+    table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
     num_envs = (args.num_envs_wolves if side == "wolves" else args.num_envs_targets) or int(table["num_envs"][side])
 
     torch.set_num_threads(args.torch_threads)
