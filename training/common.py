@@ -34,12 +34,12 @@ import wolfpack
 from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
-from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, find_model, run_label
+from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode
 from wolfpack.episodes import summarize
 
 SIDES = ("wolves", "targets")
-WOLF_LAWS = ("seed000", "bvc", "formation")
-TARGET_LAWS = ("escape", "random", "still")
+WOLF_LAWS = SCRIPTED_LAWS["wolves"]
+TARGET_LAWS = SCRIPTED_LAWS["targets"]
 TRAIN_SEED_BASE = 1_000_000
 IMITATION_SEED_BASE = 100_000_000
 HELD_OUT_SEED = 500_000
@@ -193,8 +193,7 @@ class TrainedModel:
     def action_mode(self) -> str:
         """The mode its actions are in: its side's own ``env.*_action_mode`` in its params, else
         ``env.action_mode``."""
-        env = self.params["env"]
-        return env.get("wolf_action_mode" if self.side == "wolves" else "target_action_mode") or env["action_mode"]
+        return side_action_mode(self.params, self.side)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         """Actions for a batch of observations [..., D] → [..., 2] (float32)."""
@@ -457,7 +456,7 @@ def pairing_params(base: dict, wolves, targets) -> dict:
         else:
             if who.side != side:
                 raise UsageError(f"{who.label} is a model of the {who.side}, not of the {side}")
-            p["env"]["wolf_action_mode" if side == "wolves" else "target_action_mode"] = who.action_mode
+            p["env"][mode_key(side)] = who.action_mode
     return _core.validate_params(p)
 
 

@@ -46,6 +46,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from common import (  # noqa: E402
+    TARGET_LAWS,
+    WOLF_LAWS,
     UsageError,
     available_laws,
     env_params,
@@ -200,7 +202,7 @@ _LOADED: dict = {}
 
 def _player(spec: str):
     """A law's name as it is, a model path loaded (once per process)."""
-    if spec in ("seed000", "bvc", "formation", "escape", "random", "still"):
+    if spec in WOLF_LAWS + TARGET_LAWS:
         return spec
     if spec not in _LOADED:
         _LOADED[spec] = load_model(spec)

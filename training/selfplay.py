@@ -56,6 +56,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import yaml  # noqa: E402
 
+from wolfpack.opponents import mode_key, side_action_mode  # noqa: E402
+
 from common import (  # noqa: E402
     HELD_OUT_SEED,
     HYPERPARAMS_PATH,
@@ -214,7 +216,7 @@ def member_config(side: str, params: dict, mode: str, hp: dict, extra: dict) -> 
     member's own action mode, hyperparameters) plus where it came from."""
     p = json.loads(json.dumps(params))
     p["env"]["action_mode"] = mode
-    p["env"]["wolf_action_mode" if side == "wolves" else "target_action_mode"] = mode
+    p["env"][mode_key(side)] = mode
     return {"side": side, "algo": "ppo", "params": p, "hyperparams": hp, "league_member": extra, "versions": versions()}
 
 
@@ -235,9 +237,9 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     learned = [m for m in members_of(league, side) if m["kind"] == "model"]
     start = load_model(out / learned[-1]["path"]) if learned else (load_model(out / league["init"][side]) if league["init"][side] else None)
     start_name = learned[-1]["name"] if learned else None
-    mode = start.action_mode if start is not None else (params["env"].get("wolf_action_mode" if side == "wolves" else "target_action_mode") or params["env"]["action_mode"])
+    mode = start.action_mode if start is not None else side_action_mode(params, side)
     train_params = json.loads(json.dumps(params))
-    train_params["env"]["wolf_action_mode" if side == "wolves" else "target_action_mode"] = mode
+    train_params["env"][mode_key(side)] = mode
     if start is not None and int(start.model.observation_space.shape[0]) != observation_size(train_params, side):
         raise UsageError(f"{start.label} takes {start.model.observation_space.shape[0]} observations, the {side} of the league's scenario have {observation_size(train_params, side)}")
     hp = hyperparams("ppo", start is not None, args.hps)

@@ -257,7 +257,7 @@ class BatchEnv:
         #: Entries of one world's global state row (see :meth:`state`).
         self.state_dim: int = self._core.state_dim
         self._check_opponent_fits(self.opponent)
-        if self.opponent is not None and self.opponent.learned:
+        if self._learned_opponent_side is not None:
             # The worlds exist from construction on (a step before any reset is allowed).
             self._opponent_obs = self._pop_opponent_obs(self._core.observe())
 
@@ -286,16 +286,21 @@ class BatchEnv:
             self._check_opponent_fits(new)
         core_learners, core_params = drivers(self._base_params, self.learners, new)
         self._core.set_drivers(core_learners, core_params)
-        was_driven = self._core_learners
+        before = self._core_learners
         self._core_learners, self.opponent, self.params = core_learners, new, self._core.params
-        if core_learners != was_driven and new is not None and new.learned:
-            self._opponent_obs = self._pop_opponent_obs(self._core.observe())
-        elif new is None or not new.learned:
+        if self._learned_opponent_side is None:
             self._opponent_obs = None
+        elif core_learners != before:  # its side was scripted until now: read its observations
+            self._opponent_obs = self._pop_opponent_obs(self._core.observe())
+
+    @property
+    def _learned_opponent_side(self) -> str | None:
+        """The side a learned opponent drives from Python (None: none, or a law in the core)."""
+        return self.opponent_side if self.opponent is not None and self.opponent.learned else None
 
     def _pop_opponent_obs(self, out: dict) -> np.ndarray | None:
         """Takes the opponent side's observations out of a core output (and its final ones)."""
-        side = self.opponent_side if self.opponent is not None and self.opponent.learned else None
+        side = self._learned_opponent_side
         if side is None:
             return None
         out.pop(f"final_obs_{side}", None)
@@ -362,7 +367,7 @@ class BatchEnv:
             raise ValueError("wolf actions given, but the wolves are not learners here")
         if not self.learns_targets and ta is not None:
             raise ValueError("target actions given, but the targets are not learners here")
-        side = self.opponent_side if self.opponent is not None and self.opponent.learned else None
+        side = self._learned_opponent_side
         if side is not None:
             if side == "wolves":
                 wa = self._opponent_actions()

@@ -44,6 +44,17 @@ MODEL_FILE = "model.zip"
 CONFIG_FILE = "config.yaml"
 
 
+def mode_key(side: str) -> str:
+    """The params key under ``env`` of ``side``'s own action mode."""
+    return "wolf_action_mode" if side == "wolves" else "target_action_mode"
+
+
+def side_action_mode(params: dict, side: str) -> str:
+    """How ``side`` reads its actions on ``params``: its own mode, else ``env.action_mode``."""
+    env = params["env"]
+    return env.get(mode_key(side)) or env["action_mode"]
+
+
 def _law_side(name: str) -> str | None:
     return next((side for side, laws in SCRIPTED_LAWS.items() if name in laws), None)
 
@@ -164,9 +175,9 @@ class Opponent:
                 if side is not None and side != trained_side:
                     raise ValueError(f"opponent {zip_path}: trained for the {trained_side}, asked to drive the {side}")
                 side = trained_side
-            env = (self.config.get("params") or {}).get("env") or {}
-            own = env.get("wolf_action_mode" if side == "wolves" else "target_action_mode") if side else None
-            mode = mode or own or env.get("action_mode")
+            trained = self.config.get("params") or {}
+            if mode is None and "env" in trained:
+                mode = side_action_mode(trained, side) if side else trained["env"].get("action_mode")
             label = run_label(zip_path, self.config) if self.config else zip_path.stem
         elif callable(getattr(policy, "predict", None)) and hasattr(policy, "observation_space"):
             self.kind, self.model = "model", policy
@@ -277,7 +288,7 @@ def drivers(params: dict, learners: str, opponent: Opponent | None) -> tuple[str
         return learners, params
     side = opponent_side(opponent, learners)
     p = json.loads(json.dumps(params))
-    key = "wolf_action_mode" if side == "wolves" else "target_action_mode"
+    key = mode_key(side)
     if not opponent.learned:
         p["policies"][side] = opponent.law
         return learners, p
