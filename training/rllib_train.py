@@ -21,7 +21,7 @@ Ray instance with ``--num-cpus`` CPUs is started.
 Writes, under ``--out`` (which must be new or empty, unless ``--resume``): ``config.yaml`` (the
 arguments and the resolved params), ``progress.csv`` (one row per iteration: env steps, time,
 episodes, env-steps/s over the iteration, seconds spent sampling and in PPO's update, episode
-return per module), ``checkpoint/`` (RLlib's checkpoint, every
+return per module, empty in an iteration where no episode ended), ``checkpoint/`` (RLlib's checkpoint, every
 ``--checkpoint-every`` iterations and at the end, also on Ctrl-C) and ``summary.json`` (written
 last). ``--resume DIR`` continues a run from its checkpoint.
 
@@ -76,13 +76,19 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def module_ids(args) -> list[str]:
+    """The RLModules trained: ``shared``, or one per learning side."""
+    if args.policies == "shared":
+        return ["shared"]
+    return {"all": ["wolves", "targets"], "wolves": ["wolves"], "targets": ["targets"]}[args.learners]
+
+
 def algorithm_config(args, params: dict):
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
-    sides = {"all": ["wolves", "targets"], "wolves": ["wolves"], "targets": ["targets"]}[args.learners]
-    modules = ["shared"] if args.policies == "shared" else sides
+    modules = module_ids(args)
     env_config = {"params": params, "learners": args.learners, "shared_space": args.policies == "shared", "seed": args.seed}
     return (
         PPOConfig()
@@ -130,9 +136,14 @@ def reachable(address: str, timeout_s: float = 5.0) -> None:
         raise ConnectionError(f"no Ray head answers at {address} ({e.strerror or e})") from None
 
 
-def returns_of(result: dict) -> dict[str, float]:
+def returns_of(result: dict, modules: list[str]) -> dict[str, str | float]:
+    """Mean episode return per module, as progress.csv columns ``return_<module>``.
+
+    Every module always has its column: an iteration in which no episode ended (short
+    iterations, loaded machines) writes it empty instead of leaving the column out, which
+    would fix the CSV header without it and silently drop every later iteration's returns."""
     per_module = result.get("env_runners", {}).get("module_episode_returns_mean", {}) or {}
-    return {str(k): float(v) for k, v in per_module.items()}
+    return {f"return_{m}": round(float(per_module[m]), 4) if m in per_module else "" for m in modules}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -208,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
                     # where an iteration's time goes: sampling on the env runners vs PPO's update
                     "sample_s": round(float(result.get("timers", {}).get("env_runner_sampling_timer", float("nan"))), 3),
                     "learn_s": round(float(result.get("timers", {}).get("learner_update_timer", float("nan"))), 3),
-                    **{f"return_{k}": round(v, 4) for k, v in sorted(returns_of(result).items())},
+                    **returns_of(result, module_ids(args)),
                 }
                 if writer is None:
                     writer = csv.DictWriter(f, fieldnames=list(row), extrasaction="ignore")
@@ -218,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
                 f.flush()
                 last = row
                 bar.update(1)
-                bar.set_postfix({k: v for k, v in row.items() if k.startswith("return_")})
+                bar.set_postfix({k: v for k, v in row.items() if k.startswith("return_") and v != ""})
                 if not sys.stderr.isatty():
                     print(json.dumps(row), flush=True)
                 if done % args.checkpoint_every == 0:

@@ -87,6 +87,18 @@ def test_rllib_train_two_iterations_checkpoint_and_resume(tmp_path):
     assert int(rows[2]["env_steps"]) > int(rows[1]["env_steps"])
 
 
+def test_progress_has_a_return_column_per_module_even_before_an_episode_ends():
+    """An iteration that finishes no episode (short iterations on a loaded machine) must not fix
+    progress.csv's header without the return columns."""
+    sides = rllib_train.build_parser().parse_args([])
+    assert rllib_train.module_ids(sides) == ["wolves", "targets"]
+    assert rllib_train.returns_of({"env_runners": {}}, ["wolves", "targets"]) == {"return_wolves": "", "return_targets": ""}
+    result = {"env_runners": {"module_episode_returns_mean": {"targets": 1.23456}}}
+    assert rllib_train.returns_of(result, ["wolves", "targets"]) == {"return_wolves": "", "return_targets": 1.2346}
+    shared = rllib_train.build_parser().parse_args(["--policies", "shared"])
+    assert rllib_train.module_ids(shared) == ["shared"]
+
+
 def test_rllib_train_one_shared_policy_in_process(tmp_path):
     out = tmp_path / "shared"
     assert rllib_train.main(["--policies", "shared", "--iterations", "1", "--num-env-runners", "0", "--num-cpus", "1", "--out", str(out), *SMALL]) == 0
