@@ -119,6 +119,18 @@ struct Slot {
     target_cmds: Vec<Command>,
 }
 
+impl Slot {
+    /// [`World::prefetch`] and the slot's own lists.
+    #[inline]
+    fn prefetch(&self) {
+        self.world.prefetch();
+        self.observer.prefetch();
+        self.rewards.prefetch();
+        crate::math::prefetch_slice(&self.wolf_cmds);
+        crate::math::prefetch_slice(&self.target_cmds);
+    }
+}
+
 /// One world's share of a [`StepOutput`].
 struct SlotOut<'a> {
     obs_w: &'a mut [f32],
@@ -444,11 +456,12 @@ impl BatchEnv {
                 other => other,
             })
         };
+        let ahead = |(_, (s, _)): &(usize, (&mut Slot, SlotOut))| s.prefetch();
         let results: Vec<Result<()>> = if self.steps_inline() {
-            self.slots.iter_mut().zip(outs).enumerate().map(f).collect()
+            map_ahead(self.slots.iter_mut().zip(outs).enumerate(), &ahead, &f)
         } else {
             let (participants, chunk) = (self.participants(), self.chunk());
-            share(self.pool.as_ref(), participants, self.slots.iter_mut().zip(outs).enumerate().collect(), chunk, f)
+            share_ahead(self.pool.as_ref(), participants, self.slots.iter_mut().zip(outs).enumerate().collect(), chunk, ahead, f)
         };
         results.into_iter().collect::<Result<()>>()?;
         Ok(out)
@@ -547,9 +560,29 @@ impl BatchEnv {
 /// as much as 16 worlds' work); here the caller starts at once and only the extra threads are
 /// woken.
 fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    share_ahead(pool, participants, items, chunk, |_: &T| {}, f)
+}
+
+/// `items.map(f)`, calling `ahead` on each next item before `f` takes the current one: the
+/// step uses it to start loading the next world's memory while it steps this one
+/// ([`Slot::prefetch`]).
+fn map_ahead<T, R>(items: impl Iterator<Item = T>, ahead: &impl Fn(&T), f: &impl Fn(T) -> R) -> Vec<R> {
+    let mut items = items.peekable();
+    let mut out = Vec::with_capacity(items.size_hint().0);
+    while let Some(item) = items.next() {
+        if let Some(next) = items.peek() {
+            ahead(next);
+        }
+        out.push(f(item));
+    }
+    out
+}
+
+/// [`share`], with [`map_ahead`]'s `ahead` called on each task's next item.
+fn share_ahead<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, ahead: impl Fn(&T) + Sync, f: impl Fn(T) -> R + Sync) -> Vec<R> {
     if participants <= 1 {
         // One thread: the caller's, with no pool to hand anything to.
-        return items.into_iter().map(f).collect();
+        return map_ahead(items.into_iter(), &ahead, &f);
     }
     let n = items.len();
     let chunk = chunk.max(1);
@@ -563,7 +596,7 @@ fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize
     let drain = || loop {
         let next = queue.lock().unwrap_or_else(|p| p.into_inner()).next();
         let Some((start, part)) = next else { break };
-        let out: Vec<R> = part.into_iter().map(&f).collect();
+        let out: Vec<R> = map_ahead(part.into_iter(), &ahead, &f);
         done.lock().unwrap_or_else(|p| p.into_inner()).push((start, out));
     };
     let extra = participants.saturating_sub(1);
@@ -758,6 +791,19 @@ mod tests {
             assert_eq!(share(Some(&pool), participants, (0..1000).collect(), chunk, |k: usize| 3 * k), want, "{participants} threads, chunk {chunk}");
         }
         assert_eq!(share(None, 2, (0..10).collect(), 3, |k: usize| k), (0..10).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn map_ahead_hints_each_next_item_once_before_the_current_one_is_mapped() {
+        let log = std::cell::RefCell::new(Vec::new());
+        let out = map_ahead((0..5).map(|k| k * 10), &|next: &i32| log.borrow_mut().push(format!("ahead {next}")), &|k: i32| {
+            log.borrow_mut().push(format!("map {k}"));
+            k + 1
+        });
+        assert_eq!(out, vec![1, 11, 21, 31, 41]);
+        let want = ["ahead 10", "map 0", "ahead 20", "map 10", "ahead 30", "map 20", "ahead 40", "map 30", "map 40"];
+        assert_eq!(*log.borrow(), want);
+        assert!(map_ahead(std::iter::empty::<i32>(), &|_: &i32| panic!("nothing to hint"), &|k: i32| k).is_empty());
     }
 
     /// A task that panics on a worker reaches the caller as a panic (the binding turns it

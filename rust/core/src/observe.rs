@@ -60,6 +60,13 @@ pub struct Observer {
 }
 
 impl Observer {
+    /// Starts loading this observer's lists (see [`crate::world::World::prefetch`]).
+    #[inline]
+    pub fn prefetch(&self) {
+        crate::math::prefetch_slice(&self.by_distance);
+        crate::math::prefetch_slice(&self.trig);
+    }
+
     /// Computes what every observation of this world state shares (each agent's sin/cos);
     /// call it once per state before [`Observer::wolf`] / [`Observer::target`].
     pub fn prepare(&mut self, w: &World) {

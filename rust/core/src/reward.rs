@@ -23,6 +23,14 @@ pub struct RewardState {
 }
 
 impl RewardState {
+    /// Starts loading this state's lists (see [`crate::world::World::prefetch`]).
+    #[inline]
+    pub fn prefetch(&self) {
+        crate::math::prefetch_slice(&self.potential);
+        crate::math::prefetch_slice(&self.collisions);
+        crate::math::prefetch_slice(&self.captured);
+    }
+
     /// The state at the start of an episode.
     pub fn new(w: &World) -> Self {
         let mut s = Self::default();

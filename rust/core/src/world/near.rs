@@ -53,6 +53,13 @@ impl Neighbours {
         }
     }
 
+    /// [`crate::world::World::prefetch`]'s share.
+    #[inline]
+    pub fn prefetch(&self) {
+        crate::math::prefetch_slice(&self.start);
+        crate::math::prefetch_slice(&self.index);
+    }
+
     /// Indices of the obstacles near agent `a` (wolves 0..N, then targets N..N+M).
     #[inline]
     pub fn of(&self, a: usize) -> &[u32] {
