@@ -192,11 +192,7 @@ fn write_relative(me: &AgentState, (s, c): (f64, f64), other: &AgentState, (so, 
     }
 }
 
-/// Lidar rays into `out` (its length is the ray count); returns that count.
-///
-/// Each obstacle is tested only against the rays inside the cone of its bounding disc, and
-/// only where it could still beat the ray's nearest hit so far: the exact casts run a few
-/// times per agent instead of rays × obstacles times.
+/// [`lidar_turned`] computing the heading's sin/cos and the rays' turn itself (tests).
 #[cfg(test)]
 fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -> usize {
     lidar_turned(p, me, me.theta.sin_cos(), ray_turn(out.len()), obstacles, out)
@@ -210,8 +206,13 @@ fn ray_turn(rays: usize) -> (f64, f64) {
     (std::f64::consts::TAU / rays as f64).sin_cos()
 }
 
-/// [`lidar`] given what the observer has computed once: `(sin θ, cos θ)` of the agent's
-/// heading and the rays' turn ([`ray_turn`]); the same values `lidar` computes itself.
+/// Lidar rays into `out` (its length is the ray count); returns that count. `(hs, hc)` is
+/// `(sin θ, cos θ)` of the agent's heading and `(s, c)` the rays' turn ([`ray_turn`]), both
+/// computed once by the observer.
+///
+/// Each obstacle is tested only against the rays inside the cone of its bounding disc, and
+/// only where it could still beat the ray's nearest hit so far: the exact casts run a few
+/// times per agent instead of rays × obstacles times.
 #[inline(never)]
 fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64, f64), obstacles: &[Obstacle], out: &mut [f32]) -> usize {
     let rays = out.len();
@@ -221,7 +222,8 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
     let range = p.env.lidar.range;
     let origin = me.pos;
     // Per ray: its direction and the nearest hit so far (metres), starting with the walls.
-    // Ray k+1 is ray k turned by `step`: two sin/cos per agent instead of one per ray. On the
+    // Ray k+1 is ray k turned by the rays' step (the observer's `ray_turn`): no sin/cos per
+    // ray, and none per agent (the heading's comes from the observer too). On the
     // stack for up to 64 rays. (A plain array and loop: filling an ArrayVec through `extend`
     // did not always inline and cost twice the arithmetic.)
     let mut small = [(Vec2::zeros(), 0.0f64); 64];
@@ -250,8 +252,6 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
         if dc - ob.radius >= range {
             continue;
         }
-        // Bound on |v − origin| over the polygon's vertices, for the edge filter's tolerance.
-        let scale = dc + ob.radius;
         // A ray can meet the obstacle only if its direction lies in the bounding disc's cone,
         // d·to ≥ √(dc² − R²) (dc times the cosine of the cone's half-angle asin(R/dc)): a dot
         // product per ray instead of an atan2 and an asin per obstacle. The slack, far above
@@ -268,7 +268,8 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
             let hit = if inside {
                 Some(0.0)
             } else if ob.is_polygon() {
-                ray_polygon_boundary_filtered(&ob.vertices, scale, origin, *dir, *best)
+                // dc + R bounds |v − origin| over the polygon's vertices.
+                ray_polygon_boundary_filtered(&ob.vertices, edge_filter_tolerance(dc + ob.radius), origin, *dir, *best)
             } else {
                 ray_circle(origin, *dir, ob.center, ob.radius, *best)
             };
@@ -308,31 +309,24 @@ pub fn ray_obstacle(ob: &Obstacle, o: Vec2, d: Vec2, max: f64) -> Option<f64> {
 /// The nearest crossing within `max` of the ray with any edge of the closed polygon `v`.
 #[inline]
 fn ray_polygon_boundary(v: &[Vec2], o: Vec2, d: Vec2, max: f64) -> Option<f64> {
-    let mut best = max;
-    let mut hit = false;
-    let mut a = v[v.len() - 1];
-    for &b in v {
-        if let Some(t) = ray_segment(o, d, a, b) {
-            if t <= best {
-                best = t;
-                hit = true;
-            }
-        }
-        a = b;
-    }
-    hit.then_some(best)
+    ray_polygon_boundary_filtered(v, f64::INFINITY, o, d, max)
+}
+
+/// The tolerance of [`ray_polygon_boundary_filtered`]'s edge filter for a polygon whose
+/// vertices all lie within `scale` of the ray's origin: far above the rounding of the cross
+/// products (≈ 1e-16·`scale`), far below any geometry.
+fn edge_filter_tolerance(scale: f64) -> f64 {
+    1e-9 * (1.0 + scale)
 }
 
 /// [`ray_polygon_boundary`] with a cheap test first: an edge can only be hit when the ray's
 /// line separates its two ends, i.e. the cross products `d × (v − o)` of its ends differ in
-/// sign (one multiply-subtract per vertex instead of the exact test's two divisions per
-/// edge). The filter lets through every edge within a tolerance far above the rounding of
-/// those products (≈ 1e-16·`scale`, `scale` ≥ every |v − o|) and far below any geometry, so
-/// the exact test sees every edge it could accept, in the same order: the result is the same
-/// bit for bit (test `filtered_polygon_casts_equal_the_exact_ones`).
+/// sign by more than `tol` (one multiply-subtract per vertex instead of the exact test's two
+/// divisions per edge; `tol` = ∞ tests every edge). With [`edge_filter_tolerance`] the exact
+/// test still sees every edge it could accept, in the same order: the result is the same bit
+/// for bit (test `filtered_polygon_casts_equal_the_exact_ones`).
 #[inline]
-fn ray_polygon_boundary_filtered(v: &[Vec2], scale: f64, o: Vec2, d: Vec2, max: f64) -> Option<f64> {
-    let tol = 1e-9 * (1.0 + scale);
+fn ray_polygon_boundary_filtered(v: &[Vec2], tol: f64, o: Vec2, d: Vec2, max: f64) -> Option<f64> {
     let mut best = max;
     let mut hit = false;
     let mut a = v[v.len() - 1];
@@ -583,9 +577,9 @@ mod tests {
             }
             let d = (aim - o).normalize();
             let max = rng.random_range(0.5..8.0);
-            let scale = (c - o).norm() + ob.radius;
+            let tol = edge_filter_tolerance((c - o).norm() + ob.radius);
             let exact = ray_polygon_boundary(v, o, d, max);
-            let filtered = ray_polygon_boundary_filtered(v, scale, o, d, max);
+            let filtered = ray_polygon_boundary_filtered(v, tol, o, d, max);
             assert_eq!(exact.map(f64::to_bits), filtered.map(f64::to_bits), "{k}: {exact:?} vs {filtered:?}");
             hits += usize::from(exact.is_some());
         }
