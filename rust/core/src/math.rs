@@ -39,6 +39,25 @@ pub fn wrap(a: f64) -> f64 {
     }
 }
 
+/// `a.rem_euclid(TAU)`, bit for bit, without the software `fmod` for the usual case of an
+/// angle within one turn of [0, 2π) (an obstacle's orientation after a small turn): ≈ 30
+/// instructions per obstacle and step instead of ≈ 60. Unlike [`wrap`] it keeps
+/// rem_euclid's rare result 2π (for a tiny negative `a`), as the obstacle motion always has.
+#[inline]
+pub fn rem_euclid_tau(a: f64) -> f64 {
+    // rem_euclid is `r = a % TAU; if r < 0 { r + TAU } else { r }`. For a ∈ (−2π, 2π) the fmod
+    // returns `a` itself; for a ∈ [2π, 4π) it returns a − 2π, which is exact (Sterbenz).
+    if a >= 0.0 && a < TAU {
+        a
+    } else if a > -TAU && a < 0.0 {
+        a + TAU
+    } else if (TAU..2.0 * TAU).contains(&a) {
+        a - TAU
+    } else {
+        a.rem_euclid(TAU)
+    }
+}
+
 /// Maps an angle into (−π, π]: the signed difference helper.
 #[inline]
 pub fn wrap_pi(a: f64) -> f64 {
@@ -117,6 +136,21 @@ mod tests {
         for a in [-TAU, -1e-300, -0.0, TAU, 2.0 * TAU - 1e-15, f64::from_bits(TAU.to_bits() - 1)] {
             let r = a.rem_euclid(TAU);
             assert_eq!(wrap(a).to_bits(), (if r >= TAU { 0.0 } else { r }).to_bits(), "{a}");
+        }
+    }
+
+    #[test]
+    fn rem_euclid_tau_is_rem_euclid_bit_for_bit() {
+        let mut a = -3.0 * TAU;
+        while a < 3.0 * TAU {
+            for x in [a, f64::from_bits(a.to_bits() + 1), f64::from_bits(a.to_bits().wrapping_sub(1))] {
+                assert_eq!(rem_euclid_tau(x).to_bits(), x.rem_euclid(TAU).to_bits(), "{x}");
+            }
+            a += 0.000_987_654_321;
+        }
+        let edges = [-TAU, -1e-300, -1e-17, -0.0, 0.0, TAU, 2.0 * TAU, -2.0 * TAU, f64::from_bits(TAU.to_bits() - 1), f64::from_bits(TAU.to_bits() + 1), 1e300, -1e300];
+        for x in edges {
+            assert_eq!(rem_euclid_tau(x).to_bits(), x.rem_euclid(TAU).to_bits(), "{x}");
         }
     }
 

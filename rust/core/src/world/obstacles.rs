@@ -5,7 +5,7 @@ use rand_distr::{Distribution, Normal};
 
 use crate::config::ObstacleParams;
 use crate::geometry::{self, Extent};
-use crate::math::{angle_of, unit, Vec2, FRAC_PI_2, TAU};
+use crate::math::{angle_of, rem_euclid_tau, unit, Vec2, FRAC_PI_2, TAU};
 
 /// What an obstacle is, for the avoidance law's κ table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,7 +93,7 @@ impl Obstacle {
             (0.0, 0.0)
         };
         if self.is_polygon() {
-            self.angle = (self.angle + turn).rem_euclid(TAU);
+            self.angle = rem_euclid_tau(self.angle + turn);
         }
         if self.kind.is_moving() {
             let r = self.radius;
