@@ -1,10 +1,7 @@
 //! Agent bodies (isosceles triangles) and their overlap tests.
 
-use parry2d_f64::query::PointQuery;
-use parry2d_f64::shape::Segment;
-
 use super::polygon::polygon_contains;
-use crate::math::{cross, unit, Point2, Vec2, FRAC_PI_2};
+use crate::math::{cross, unit, Vec2, FRAC_PI_2};
 
 /// The body of an agent at pose (p, θ) (SPEC §1.2): the pose point is the base midpoint,
 /// the apex lies `height` ahead, the base corners `base/2` to either side.
@@ -85,11 +82,7 @@ pub fn triangle_overlaps_circle(t: &[Vec2; 3], center: Vec2, radius: f64) -> boo
     if triangle_contains(t, center) {
         return true;
     }
-    let c = Point2::from(center);
-    (0..3).any(|i| {
-        let seg = Segment::new(Point2::from(t[i]), Point2::from(t[(i + 1) % 3]));
-        seg.distance_to_local_point(&c, true) <= radius
-    })
+    (0..3).any(|i| (super::polygon::closest_on_segment(t[i], t[(i + 1) % 3], center) - center).norm() <= radius)
 }
 
 /// A triangle and a simple polygon (vertices in order, either winding) share a point.

@@ -18,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::config::Params;
 use crate::error::Result;
-use crate::geometry::body_triangle;
+use crate::geometry::{body_triangle, BodyFrame};
 use crate::math::Vec2;
 use crate::policies::{Command, TargetMemory, WolfMemory};
 
@@ -132,9 +132,9 @@ pub struct World {
     // Per-step scratch, kept to avoid allocation on the hot path.
     wolf_cmds: Vec<Command>,
     target_cmds: Vec<Command>,
-    bodies: Vec<[Vec2; 3]>,
-    /// The wolf poses `bodies` were computed for, with `unit(θ)` of each.
-    body_poses: Vec<(Vec2, f64, Vec2)>,
+    /// The wolves' and the targets' bodies at their current poses, kept from step to step.
+    wolf_bodies: Bodies,
+    target_bodies: Bodies,
     scratch_row: Vec<u8>,
     /// This step's obstacles near each agent ([`Neighbours`]), built once after the obstacles
     /// move and shared by the laws, the feasibility filter and the judge.
@@ -213,8 +213,8 @@ impl World {
             rng_policy: stream(seed, episode, STREAM_POLICY),
             wolf_cmds: vec![Command::default(); n],
             target_cmds: vec![Command::default(); m],
-            bodies: Vec::with_capacity(n),
-            body_poses: Vec::with_capacity(n),
+            wolf_bodies: Bodies::default(),
+            target_bodies: Bodies::default(),
             scratch_row: vec![0; n + m],
             near: Neighbours::default(),
         };
@@ -271,8 +271,8 @@ impl World {
         pf(&self.collisions);
         pf(&self.wolf_cmds);
         pf(&self.target_cmds);
-        pf(&self.bodies);
-        pf(&self.body_poses);
+        self.wolf_bodies.prefetch();
+        self.target_bodies.prefetch();
         self.near.prefetch();
     }
 
@@ -290,6 +290,61 @@ impl World {
     /// The first step at which any target was cornered (SPEC §6), if one ever was.
     pub fn cornered_step(&self) -> Option<u32> {
         self.target_cornered_step.iter().flatten().copied().min()
+    }
+}
+
+/// The body triangles of one side's agents at the poses they were computed for, with each
+/// agent's travel direction `unit(θ)`: a step reuses the last step's bodies and directions
+/// instead of taking a `sin_cos` of every old heading again (the values are the same, bit for
+/// bit, as computing them anew).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Bodies {
+    tris: Vec<[Vec2; 3]>,
+    /// (pose point, heading, unit(heading)) of each body.
+    poses: Vec<(Vec2, f64, Vec2)>,
+}
+
+impl Bodies {
+    /// Makes the bodies those of `agents`' current poses: kept where the poses are unchanged
+    /// (the last step left them), rebuilt otherwise (spawns, layouts, tests moving agents).
+    pub(crate) fn sync(&mut self, agents: &[AgentState], base: f64, height: f64) {
+        let current = self.tris.len() == agents.len() && self.poses.iter().zip(agents).all(|(q, a)| (q.0, q.1) == (a.pos, a.theta));
+        if !current {
+            self.tris.clear();
+            self.poses.clear();
+            for a in agents {
+                let frame = BodyFrame::new(a.theta, base, height);
+                self.tris.push(frame.at(a.pos));
+                self.poses.push((a.pos, a.theta, frame.fwd));
+            }
+        }
+    }
+
+    /// Agent `i`'s travel direction `unit(θ)` at the synced pose.
+    #[inline]
+    pub(crate) fn dir(&self, i: usize) -> Vec2 {
+        self.poses[i].2
+    }
+
+    #[inline]
+    pub(crate) fn tri(&self, i: usize) -> &[Vec2; 3] {
+        &self.tris[i]
+    }
+
+    pub(crate) fn tris(&self) -> &[[Vec2; 3]] {
+        &self.tris
+    }
+
+    /// Agent `i` moved to `(pos, θ)`, whose body frame is `frame`.
+    #[inline]
+    pub(crate) fn set(&mut self, i: usize, pos: Vec2, theta: f64, frame: &BodyFrame) {
+        self.tris[i] = frame.at(pos);
+        self.poses[i] = (pos, theta, frame.fwd);
+    }
+
+    fn prefetch(&self) {
+        crate::math::prefetch_slice(&self.tris);
+        crate::math::prefetch_slice(&self.poses);
     }
 }
 

@@ -5,8 +5,8 @@ use parry2d_f64::transformation::convex_hull;
 
 use super::{AgentState, Outcome, World};
 use crate::config::{CaptureRule, Params, SideParams};
-use crate::geometry::{body_triangle, triangle_contains, triangles_overlap, BodyFrame};
-use crate::math::{unit, wrap, Point2, Vec2};
+use crate::geometry::{triangle_contains, triangles_overlap, BodyFrame};
+use crate::math::{wrap, Point2, Vec2};
 use crate::policies::saturator::saturate;
 use crate::policies::{self, Command, Snapshot};
 
@@ -166,18 +166,9 @@ impl World {
         let b = &p.agents.body;
         let ts = p.world.ts;
         // The bodies the last step left are those of the current poses, unless someone moved a
-        // wolf in between (tests, layouts): reuse them when the poses are the same.
+        // wolf in between (tests, layouts).
         let n = self.wolves.len();
-        let current = self.bodies.len() == n && self.body_poses.iter().zip(&self.wolves).all(|(q, w)| (q.0, q.1) == (w.pos, w.theta));
-        if !current {
-            self.bodies.clear();
-            self.body_poses.clear();
-            for w in &self.wolves {
-                let frame = BodyFrame::new(w.theta, b.base, b.height);
-                self.bodies.push(frame.at(w.pos));
-                self.body_poses.push((w.pos, w.theta, frame.fwd));
-            }
-        }
+        self.wolf_bodies.sync(&self.wolves, b.base, b.height);
         for i in 0..n {
             let cmd = clamp(self.wolf_cmds[i], &p.agents.wolf);
             let w = self.wolves[i];
@@ -185,9 +176,8 @@ impl World {
             let mut omega = cmd.omega;
             let mut v = cmd.v;
             // The direction of travel is the last step's `unit(θ)` (kept with the body), and
-            // the new body takes two sin_cos whatever the number of halvings: the same values,
-            // bit for bit, as computing them per try.
-            let dir = self.body_poses[i].2;
+            // the new body takes one sin_cos whatever the number of halvings.
+            let dir = self.wolf_bodies.dir(i);
             let mut frame = BodyFrame::new(theta, b.base, b.height);
             if p.world.feasibility_filter {
                 // SPEC §1.5: a move feasible as commanded is made as commanded, however small
@@ -224,8 +214,7 @@ impl World {
             }
             let mass = p.agents.wolf.mass;
             self.wolves[i] = AgentState { pos, theta, v, omega, energy: w.energy + 0.5 * mass * v * v };
-            self.bodies[i] = frame.at(pos);
-            self.body_poses[i] = (pos, theta, frame.fwd);
+            self.wolf_bodies.set(i, pos, theta, &frame);
         }
     }
 
@@ -242,7 +231,7 @@ impl World {
         if super::near(&self.obstacles, Some(&self.near), i).any(|o| o.overlaps_triangle(&body)) {
             return false;
         }
-        !self.bodies.iter().enumerate().any(|(j, other)| j != i && (self.wolves[j].pos - pos).norm() <= reach && triangles_overlap(&body, other))
+        !self.wolf_bodies.tris().iter().enumerate().any(|(j, other)| j != i && (self.wolves[j].pos - pos).norm() <= reach && triangles_overlap(&body, other))
     }
 
     #[inline(never)]
@@ -253,6 +242,7 @@ impl World {
         let side = p.agents.target.side();
         let [x0, y0, x1, y1] = p.world.border;
         let n = self.wolves.len();
+        self.target_bodies.sync(&self.targets, b.base, b.height);
         for j in 0..self.targets.len() {
             let t = self.targets[j];
             let mut cmd = clamp(self.target_cmds[j], &side);
@@ -266,11 +256,14 @@ impl World {
             }
             let theta = wrap(t.theta + cmd.omega * ts);
             let mut v = cmd.v;
-            let dir = unit(t.theta);
+            // As for wolves: the last step's `unit(θ)`, and one frame for the new heading that
+            // serves the filter and, through `target_bodies`, the judge.
+            let dir = self.target_bodies.dir(j);
+            let frame = BodyFrame::new(theta, b.base, b.height);
             let pos = t.pos + dir * (v * ts);
             if p.world.feasibility_filter && v > 0.0 {
                 let inside = pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1;
-                let body = body_triangle(pos, theta, b.base, b.height);
+                let body = frame.at(pos);
                 if !inside || super::near(&self.obstacles, Some(&self.near), n + j).any(|o| o.overlaps_triangle(&body)) {
                     v = 0.0; // SPEC: a target that cannot move feasibly only turns.
                 }
@@ -282,6 +275,7 @@ impl World {
             }
             let mass = side.mass;
             self.targets[j] = AgentState { pos, theta, v, omega: cmd.omega, energy: t.energy + 0.5 * mass * v * v };
+            self.target_bodies.set(j, pos, theta, &frame);
         }
     }
 
@@ -293,17 +287,18 @@ impl World {
         let reach = p.agents.body.reach();
         let mut wolf_collided = false;
         for i in 0..n {
-            let body = self.bodies[i];
-            let hit_obstacle = super::near(&self.obstacles, Some(&self.near), i).any(|o| o.overlaps_triangle(&body));
-            let hit_wolf = (0..n).any(|j| j != i && (self.wolves[j].pos - self.wolves[i].pos).norm() <= reach && triangles_overlap(&body, &self.bodies[j]));
+            let body = self.wolf_bodies.tri(i);
+            let hit_obstacle = super::near(&self.obstacles, Some(&self.near), i).any(|o| o.overlaps_triangle(body));
+            let hit_wolf = (0..n).any(|j| j != i && (self.wolves[j].pos - self.wolves[i].pos).norm() <= reach && triangles_overlap(body, self.wolf_bodies.tri(j)));
             if hit_obstacle || hit_wolf {
                 self.collisions[i] += 1;
                 wolf_collided = true;
             }
         }
         for j in 0..self.targets.len() {
-            let body = self.body(&self.targets[j]);
-            if super::near(&self.obstacles, Some(&self.near), n + j).any(|o| o.overlaps_triangle(&body)) {
+            // The body move_targets left (this step's pose).
+            let body = self.target_bodies.tri(j);
+            if super::near(&self.obstacles, Some(&self.near), n + j).any(|o| o.overlaps_triangle(body)) {
                 self.collisions[n + j] += 1;
             }
         }
