@@ -9,12 +9,16 @@
 //! cargo run --release -p wolfpack-core --example digest -- [EPISODES]   # default 200
 //! ```
 //!
-//! Prints one `law  trajectory-digest  observation-digest  captured/collision/timeout` row per
-//! law. The digest is FNV-1a over the little-endian bytes, stable across Rust versions.
+//! Prints one `law  trajectory-digest  observation-digest  runner-digest
+//! captured/collision/timeout` row per law. The runner digest hashes the recorded trajectories
+//! of the same episodes run by `run_episodes` (the path of `wolfpack hunt`, which has fast
+//! paths of its own). The digests are FNV-1a over the little-endian bytes, stable across Rust
+//! versions.
 
 use std::sync::Arc;
 
 use wolfpack_core::config::WolfPolicy;
+use wolfpack_core::episode::run_episodes;
 use wolfpack_core::observe::{target_dim, wolf_dim, Observer};
 use wolfpack_core::world::Outcome;
 use wolfpack_core::{Params, World};
@@ -84,6 +88,15 @@ fn main() {
             counts[k] += 1;
             traj.bytes(&w.t.to_le_bytes());
         }
-        println!("{:<10} {:016x} {:016x} captured {} collision {} timeout {}", format!("{law:?}"), traj.0, obs.0, counts[0], counts[1], counts[2]);
+        let mut runner = Fnv::new();
+        for r in run_episodes(&p, 0, 0, episodes, None, true, Some(1)).expect("episodes") {
+            let t = r.trajectory.expect("recorded");
+            for x in t.wolves.iter().chain(&t.targets).chain(&t.energy).chain(&t.obstacles) {
+                runner.f64(*x);
+            }
+            runner.bytes(&t.interaction);
+            runner.bytes(&r.steps.to_le_bytes());
+        }
+        println!("{:<10} {:016x} {:016x} {:016x} captured {} collision {} timeout {}", format!("{law:?}"), traj.0, obs.0, runner.0, counts[0], counts[1], counts[2]);
     }
 }
