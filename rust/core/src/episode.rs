@@ -134,6 +134,9 @@ fn run_prevalidated(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, re
         Some(l) => World::from_layout(params.clone(), seed, l)?,
         None => World::new_episode_prevalidated(params.clone(), seed, 0)?,
     };
+    // Nothing outside this function sees the world, and the recorder keeps obstacle poses,
+    // not vertices: the polygons nobody can reach need not be placed.
+    world.lazy_obstacles = true;
     let (n, m) = (world.n_wolves(), world.n_targets());
     let mut traj = record.then(|| {
         // Capacity for a typical episode; the vectors grow if it runs longer. Preallocating

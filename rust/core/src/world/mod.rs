@@ -124,6 +124,13 @@ pub struct World {
     /// follows the episode (for [`World::expert_desired`], imitation learning). Off by default:
     /// it costs a law evaluation per agent and step.
     pub track_laws: bool,
+    /// Place a polygon's vertices only when an agent could reach it this step (its bounding
+    /// disc within the cull distance of a pose point) instead of after every move: a sin_cos
+    /// and a rotation of 7–15 vertices for each of the other polygons, ≈ 8 % of a step of the
+    /// documented scenario. Only the episode runner sets it, on worlds nothing else reads: the
+    /// vertices of the other polygons are stale between steps there. Laws that read every
+    /// obstacle (bvc, formation) get every polygon placed.
+    pub(crate) lazy_obstacles: bool,
     /// Set when a step produced a non-finite command or pose (see [`World::fault`]); the world
     /// is then done and does not move again.
     fault: Option<String>,
@@ -208,6 +215,7 @@ impl World {
             collisions: vec![0; n + m],
             outcome: Outcome::Running,
             track_laws: false,
+            lazy_obstacles: false,
             fault: None,
             rng_motion: stream(seed, episode, STREAM_MOTION),
             rng_policy: stream(seed, episode, STREAM_POLICY),

@@ -60,6 +60,13 @@ impl Neighbours {
         crate::math::prefetch_slice(&self.index);
     }
 
+    /// Every agent's list, one after the other (an obstacle near several agents appears once
+    /// per agent).
+    #[inline]
+    pub fn all(&self) -> &[u32] {
+        &self.index
+    }
+
     /// Indices of the obstacles near agent `a` (wolves 0..N, then targets N..N+M).
     #[inline]
     pub fn of(&self, a: usize) -> &[u32] {

@@ -37,12 +37,16 @@ pub struct Obstacle {
     pub local: Vec<Vec2>,
     /// Polygon vertices in world coordinates at the current pose (empty for circles).
     pub vertices: Vec<Vec2>,
+    /// Whether `vertices` are those of the current pose. Always true outside a step, except
+    /// in the episode runner's own worlds (see `World::lazy_obstacles`), where only the
+    /// polygons that an agent could reach are placed.
+    pub(crate) placed: bool,
 }
 
 impl Obstacle {
     pub fn circle(center: Vec2, radius: f64, moving: bool) -> Self {
         let kind = if moving { ObstacleKind::MovingCircle } else { ObstacleKind::StaticCircle };
-        Self { kind, center, radius, angle: 0.0, local: Vec::new(), vertices: Vec::new() }
+        Self { kind, center, radius, angle: 0.0, local: Vec::new(), vertices: Vec::new(), placed: true }
     }
 
     /// A polygon from world-coordinate vertices around `center`.
@@ -50,7 +54,7 @@ impl Obstacle {
         let kind = if moving { ObstacleKind::MovingPolygon } else { ObstacleKind::StaticPolygon };
         let local: Vec<Vec2> = vertices.iter().map(|v| v - center).collect();
         let radius = local.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        Self { kind, center, radius, angle: 0.0, local, vertices }
+        Self { kind, center, radius, angle: 0.0, local, vertices, placed: true }
     }
 
     /// The random irregular polygon of SPEC §1.3: size R, n vertices whose polar angles cover
@@ -79,12 +83,29 @@ impl Obstacle {
         for (w, l) in self.vertices.iter_mut().zip(&self.local) {
             *w = self.center + Vec2::new(c * l.x - s * l.y, s * l.x + c * l.y);
         }
+        self.placed = true;
+    }
+
+    /// Places the vertices at the current pose if [`Obstacle::advance_pose`] left them behind:
+    /// the same numbers, bit for bit, as placing them when the obstacle moved.
+    #[inline]
+    pub(crate) fn ensure_placed(&mut self) {
+        if !self.placed {
+            self.place();
+        }
     }
 
     /// One step of obstacle motion (SPEC §1.3): polygons rotate by U(−rot, rot); moving ones
     /// translate by v·Ts with v ~ N(0, σ²) per axis, reflected so they stay inside the border.
     /// Draws are made in a fixed order for every obstacle so the stream is layout-independent.
     pub fn advance<R: Rng>(&mut self, rng: &mut R, p: &ObstacleParams, ts: f64, border: &[f64; 4]) {
+        self.advance_pose(rng, p, ts, border);
+        self.ensure_placed();
+    }
+
+    /// [`Obstacle::advance`] without placing a polygon's vertices (a sin_cos and a rotation of
+    /// every vertex): they stay behind until [`Obstacle::ensure_placed`].
+    pub(crate) fn advance_pose<R: Rng>(&mut self, rng: &mut R, p: &ObstacleParams, ts: f64, border: &[f64; 4]) {
         let turn = if p.rotation_max > 0.0 { rng.random_range(-p.rotation_max..=p.rotation_max) } else { 0.0 };
         let (vx, vy) = if p.speed_std > 0.0 {
             let n = Normal::new(0.0, p.speed_std).expect("validated std");
@@ -101,7 +122,7 @@ impl Obstacle {
             self.center.y = reflect(self.center.y + vy * ts, border[1] + r, border[3] - r);
         }
         if self.is_polygon() {
-            self.place();
+            self.placed = false;
         }
     }
 

@@ -4,7 +4,8 @@
 use parry2d_f64::transformation::convex_hull;
 
 use super::{AgentState, Outcome, World};
-use crate::config::{CaptureRule, Params, SideParams};
+use super::Obstacle;
+use crate::config::{CaptureRule, Params, SideParams, WolfPolicy};
 use crate::geometry::{triangle_contains, triangles_overlap, BodyFrame};
 use crate::math::{wrap, Point2, Vec2};
 use crate::policies::saturator::saturate;
@@ -31,6 +32,9 @@ impl World {
         self.move_obstacles();
         let cut = super::cull_distance(&self.params);
         self.near.build(self.wolves.iter().chain(&self.targets).map(|a| a.pos), &self.obstacles, cut);
+        if self.lazy_obstacles {
+            self.place_reachable_obstacles();
+        }
         // 2. Assignment, sensing and the snapshot every controller reads.
         self.sense();
         self.control(wolf_cmds, target_cmds);
@@ -58,7 +62,25 @@ impl World {
     fn move_obstacles(&mut self) {
         let p = &*self.params;
         for o in &mut self.obstacles {
-            o.advance(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
+            if self.lazy_obstacles {
+                o.advance_pose(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
+            } else {
+                o.advance(&mut self.rng_motion, &p.obstacles, p.world.ts, &p.world.border);
+            }
+        }
+    }
+
+    /// With `lazy_obstacles`: places the polygons in some agent's near list, which are all the
+    /// seed000 and target laws, the feasibility filter and the judge read; every polygon for
+    /// the wolf laws that look at all obstacles.
+    #[inline(never)]
+    fn place_reachable_obstacles(&mut self) {
+        if self.params.policies.wolves == WolfPolicy::Seed000 {
+            for &k in self.near.all() {
+                self.obstacles[k as usize].ensure_placed();
+            }
+        } else {
+            self.obstacles.iter_mut().for_each(Obstacle::ensure_placed);
         }
     }
 
