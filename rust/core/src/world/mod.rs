@@ -8,7 +8,7 @@ mod expert;
 mod step;
 
 pub use layout::{Layout, LayoutObstacle};
-pub use near::{cull_distance, near, Neighbours};
+pub use near::{cull_distance, near, Near, Neighbours};
 pub use obstacles::{Obstacle, ObstacleKind};
 
 use std::sync::Arc;

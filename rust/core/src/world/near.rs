@@ -77,12 +77,32 @@ impl Neighbours {
 /// The obstacles near agent `a`, or all of them without lists (tests, the expert's look-ahead:
 /// the result is the same, only slower).
 #[inline]
-pub fn near<'a>(obstacles: &'a [Obstacle], lists: Option<&'a Neighbours>, a: usize) -> impl Iterator<Item = &'a Obstacle> + 'a {
-    let (some, all) = match lists {
-        Some(n) => (Some(n.of(a).iter().map(move |&k| &obstacles[k as usize])), None),
-        None => (None, Some(obstacles.iter())),
-    };
-    some.into_iter().flatten().chain(all.into_iter().flatten())
+pub fn near<'a>(obstacles: &'a [Obstacle], lists: Option<&'a Neighbours>, a: usize) -> Near<'a> {
+    Near { obstacles, list: lists.map(|n| n.of(a)), i: 0 }
+}
+
+/// The iterator of [`near`]. (A plain cursor: the `chain` of two flattened options it replaced
+/// compiled to ≈ 3 % of a step of iterator state, and did not always inline.)
+#[derive(Debug, Clone)]
+pub struct Near<'a> {
+    obstacles: &'a [Obstacle],
+    /// The agent's list, or `None` for every obstacle.
+    list: Option<&'a [u32]>,
+    i: usize,
+}
+
+impl<'a> Iterator for Near<'a> {
+    type Item = &'a Obstacle;
+
+    #[inline]
+    fn next(&mut self) -> Option<&'a Obstacle> {
+        let k = match self.list {
+            Some(l) => *l.get(self.i)? as usize,
+            None => self.i,
+        };
+        self.i += 1;
+        self.obstacles.get(k)
+    }
 }
 
 #[cfg(test)]
