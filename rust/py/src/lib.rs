@@ -9,8 +9,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, RecvTimeoutError};
 use std::time::Duration;
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::ndarray::{Array, IxDyn};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pythonize::pythonize;
@@ -224,8 +226,17 @@ fn check_layout<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, layout: &Bound
     params_to_py(py, &w.params.resolved())
 }
 
+/// `data` as a numpy array of `shape`, built with that shape (no reshape, so one array object
+/// instead of two; the data is moved, not copied). C-contiguous and writeable.
 fn array<'py, T: numpy::Element>(py: Python<'py>, data: Vec<T>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
-    Ok(PyArray1::from_vec(py, data).reshape(shape)?.into_any())
+    let bad = |e: numpy::ndarray::ShapeError| PyRuntimeError::new_err(format!("internal error in wolfpack core (please report): {e}"));
+    // Fixed dimensions where they fit: a dynamic one allocates its shape and strides.
+    Ok(match *shape {
+        [a] if a == data.len() => PyArray1::from_vec(py, data).into_any(),
+        [a, b] => Array::from_shape_vec((a, b), data).map_err(bad)?.into_pyarray(py).into_any(),
+        [a, b, c] => Array::from_shape_vec((a, b, c), data).map_err(bad)?.into_pyarray(py).into_any(),
+        _ => Array::from_shape_vec(IxDyn(shape), data).map_err(bad)?.into_pyarray(py).into_any(),
+    })
 }
 
 fn trajectory_to_py<'py>(py: Python<'py>, t: Trajectory, n: usize, m: usize) -> PyResult<Bound<'py, PyDict>> {
@@ -324,32 +335,40 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyR
     let e = env.num_envs();
     let (n, m) = (env.n_wolves(), env.n_targets());
     let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
+    // Interned keys: one string object each for the life of the module, not one per step.
     let d = PyDict::new(py);
     let l = env.learners();
     if l.wolves() {
-        d.set_item("obs_wolves", array(py, o.obs_wolves, &[e, n, dw])?)?;
+        d.set_item(intern!(py, "obs_wolves"), array(py, o.obs_wolves, &[e, n, dw])?)?;
         if !o.final_obs_wolves.is_empty() {
-            d.set_item("final_obs_wolves", array(py, o.final_obs_wolves, &[e, n, dw])?)?;
+            d.set_item(intern!(py, "final_obs_wolves"), array(py, o.final_obs_wolves, &[e, n, dw])?)?;
         }
     }
     if l.targets() {
-        d.set_item("obs_targets", array(py, o.obs_targets, &[e, m, dt])?)?;
+        d.set_item(intern!(py, "obs_targets"), array(py, o.obs_targets, &[e, m, dt])?)?;
         if !o.final_obs_targets.is_empty() {
-            d.set_item("final_obs_targets", array(py, o.final_obs_targets, &[e, m, dt])?)?;
+            d.set_item(intern!(py, "final_obs_targets"), array(py, o.final_obs_targets, &[e, m, dt])?)?;
         }
     }
-    d.set_item("rewards_wolves", array(py, o.rewards_wolves, &[e, n])?)?;
-    d.set_item("rewards_targets", array(py, o.rewards_targets, &[e, m])?)?;
-    d.set_item("terminated", PyArray1::from_vec(py, o.terminated))?;
-    d.set_item("truncated", PyArray1::from_vec(py, o.truncated))?;
-    d.set_item("outcome", PyArray1::from_vec(py, o.outcome))?;
-    d.set_item("steps", PyArray1::from_vec(py, o.steps))?;
-    d.set_item("capture_step", array(py, o.capture_step, &[e, m])?)?;
-    d.set_item("cornered_step", array(py, o.cornered_step, &[e, m])?)?;
-    d.set_item("energy", array(py, o.energy, &[e, n + m])?)?;
-    d.set_item("collisions", array(py, o.collisions, &[e, n + m])?)?;
-    d.set_item("distance", array(py, o.distance, &[e, n + m])?)?;
+    d.set_item(intern!(py, "rewards_wolves"), array(py, o.rewards_wolves, &[e, n])?)?;
+    d.set_item(intern!(py, "rewards_targets"), array(py, o.rewards_targets, &[e, m])?)?;
+    d.set_item(intern!(py, "terminated"), PyArray1::from_vec(py, o.terminated))?;
+    d.set_item(intern!(py, "truncated"), PyArray1::from_vec(py, o.truncated))?;
+    d.set_item(intern!(py, "outcome"), PyArray1::from_vec(py, o.outcome))?;
+    d.set_item(intern!(py, "steps"), PyArray1::from_vec(py, o.steps))?;
+    d.set_item(intern!(py, "capture_step"), array(py, o.capture_step, &[e, m])?)?;
+    d.set_item(intern!(py, "cornered_step"), array(py, o.cornered_step, &[e, m])?)?;
+    d.set_item(intern!(py, "energy"), array(py, o.energy, &[e, n + m])?)?;
+    d.set_item(intern!(py, "collisions"), array(py, o.collisions, &[e, n + m])?)?;
+    d.set_item(intern!(py, "distance"), array(py, o.distance, &[e, n + m])?)?;
     Ok(d)
+}
+
+fn slice_of<'a>(a: &'a Option<PyReadonlyArray3<'_, f32>>) -> PyResult<&'a [f32]> {
+    match a {
+        Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string())),
+        None => Ok(&[]),
+    }
 }
 
 /// The native batch: `num_envs` worlds stepped together on a thread pool with the GIL
@@ -429,14 +448,7 @@ impl PyBatchEnv {
         let e = self.inner.num_envs();
         let wa = actions_from(wolf_actions, "wolf", [e, self.inner.n_wolves(), 2])?;
         let ta = actions_from(target_actions, "target", [e, self.inner.n_targets(), 2])?;
-        let ws: &[f32] = match &wa {
-            Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?,
-            None => &[],
-        };
-        let ts: &[f32] = match &ta {
-            Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?,
-            None => &[],
-        };
+        let (ws, ts) = (slice_of(&wa)?, slice_of(&ta)?);
         let env = &mut self.inner;
         let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
         step_output_to_py(py, &self.inner, out)
