@@ -68,6 +68,14 @@ class BatchEnv:
         """Resets one world, optionally seeded and from a LAYOUT."""
     def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, Any]:
         """One step; float32 C-contiguous actions [E, N, 2] / [E, M, 2] for the learning sides."""
+    def try_step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, Any] | None:
+        """``step`` when the actions are exactly what it takes (float32, C-contiguous, the right
+        shapes, for exactly the learning sides); else None, and nothing moves."""
+    def step_slots(self, actions: Any) -> tuple[Any, Any, Any, dict[str, Any], Any] | None:
+        """For the SB3 VecEnv: one step from per-slot actions, float32 C-contiguous [E*K, 2]
+        (None, nothing moving, for anything else). (obs, rewards [E*K], dones [E*K], infos,
+        final_obs or None when no world ended); obs [E*K, D], or (obs_wolves, obs_targets)
+        when both sides learn."""
     def expert_actions(self) -> tuple[Any, Any]:
         """The scripted laws' actions for the learning sides (None for the others)."""
     def observe(self) -> dict[str, Any]:

@@ -246,6 +246,9 @@ class BatchEnv:
         core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)
         self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads)
         self._core_learners = core_learners
+        #: :attr:`_learned_opponent_side`, kept here for :meth:`step`'s fast path (it changes
+        #: only in :meth:`set_opponent`).
+        self._learned_side: str | None = None
         #: The opponent side's observations of the current step ([E, K, D]), for its next action.
         self._opponent_obs: np.ndarray | None = None
         self.params: dict = self._core.params
@@ -257,6 +260,7 @@ class BatchEnv:
         #: Entries of one world's global state row (see :meth:`state`).
         self.state_dim: int = self._core.state_dim
         self._check_opponent_fits(self.opponent)
+        self._learned_side = self._learned_opponent_side
         if self._learned_opponent_side is not None:
             # The worlds exist from construction on (a step before any reset is allowed).
             self._opponent_obs = self._pop_opponent_obs(self._core.observe())
@@ -288,6 +292,7 @@ class BatchEnv:
         self._core.set_drivers(core_learners, core_params)
         before = self._core_learners
         self._core_learners, self.opponent, self.params = core_learners, new, self._core.params
+        self._learned_side = self._learned_opponent_side
         if self._learned_opponent_side is None:
             self._opponent_obs = None
         elif core_learners != before:  # its side was scripted until now: read its observations
@@ -357,6 +362,14 @@ class BatchEnv:
     def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, np.ndarray]:
         """Steps every world. Actions [E, N, 2] / [E, M, 2] in [-1, 1] (clipped), for (and only
         for) the learning sides."""
+        if self._learned_side is None:
+            # The fast path: actions exactly as the core takes them (float32, C-contiguous, of
+            # the right shapes, given for exactly the learning sides) go straight in, with no
+            # check here that could fail. Anything else comes back as None with nothing moved
+            # and takes the checked path below, which converts or names the problem.
+            out = self._core.try_step(wolf_actions, target_actions)
+            if out is not None:
+                return out
         wa = as_actions(wolf_actions, "wolf actions", (self.num_envs, self.n_wolves, 2)) if wolf_actions is not None else None
         ta = as_actions(target_actions, "target actions", (self.num_envs, self.n_targets, 2)) if target_actions is not None else None
         if self.learns_wolves and wa is None:

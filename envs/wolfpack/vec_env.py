@@ -25,7 +25,13 @@ SB3 semantics, exactly: ``step`` returns fresh arrays; a world that finishes is 
 same step, its slots report ``done`` with ``infos[k]["terminal_observation"]`` (the last
 observation of the finished episode) and ``infos[k]["TimeLimit.truncated"]`` (True when the
 episode hit ``world.max_steps`` without terminating). A target captured while others still
-run (M > 1) keeps its slot with reward 0 until its world ends.
+run (M > 1) keeps its slot with reward 0 until its world ends. Actions are [slots, 2] of a
+floating dtype: a wrong dtype or shape is a ``ValueError`` from ``step_async``, a NaN or inf
+one from ``step_wait`` naming the slot (``slot k (wolf_i in world e)``), and nothing moves.
+
+A step is one call into the core (``step_wait``): observations, rewards and dones come back
+from Rust as they are returned; only a learned opponent, which acts from Python, takes the
+path through :meth:`wolfpack.BatchEnv.step`.
 
 Infos cost nothing while episodes run: the slot of a running world gets
 :data:`RUNNING_INFO`, one shared, empty, read-only mapping (SB3 and its wrappers only read a
@@ -167,15 +173,46 @@ class WolfpackVecEnv(VecEnv):
             raise ValueError(f"actions must be floating point, got dtype {a.dtype}")
         if a.shape != (self.num_envs, 2):
             raise ValueError(f"actions: expected shape ({self.num_envs}, 2), got {a.shape}")
-        if not np.isfinite(a).all():  # one reduction on the fast path; details only on failure
-            k = int(np.argmax(~np.isfinite(a).all(axis=1)))
-            raise ValueError(f"action of slot {k} ({self._views[k].agent} in world {self._views[k].world_index}) is not finite: {a[k].tolist()}")
-        self._actions = a.reshape(self.worlds, self.per_world, 2)
+        # Non-finite actions are caught in step_wait, by the core's check before anything
+        # moves (see _check_finite): a check here cost more than the rest of this method.
+        self._actions = a
 
     def step_wait(self):
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async()")
         actions, self._actions = self._actions, None
+        if self.batch._learned_side is not None:  # a learned opponent acts from Python first
+            return self._step_through_batch(actions)
+        # One call into Rust: the slots' observations, rewards and dones come back as this
+        # VecEnv returns them (fresh arrays), the numeric infos as BatchEnv.step has them.
+        step_slots = self.batch._core.step_slots
+        try:
+            res = step_slots(actions)
+            if res is None:  # not float32 or not C-contiguous (the shape was checked)
+                res = step_slots(np.ascontiguousarray(actions, dtype=np.float32))
+        except ValueError:
+            self._check_finite(actions)
+            raise
+        obs, rewards, dones, self.step_infos, final_obs = res
+        if self._shared is not None:
+            obs = self._flat(self._shared.pack(*obs))
+        infos: list[Mapping[str, Any]] = [RUNNING_INFO] * self.num_envs
+        if final_obs is not None:  # some world ended this step
+            if self._shared is not None:
+                final_obs = self._flat(self._shared.pack(*final_obs))
+            self._fill_ended_infos(infos, self.step_infos, final_obs)
+        return obs, rewards, dones, infos
+
+    def _check_finite(self, actions: np.ndarray) -> None:
+        """ValueError naming the first slot whose action is not finite, if one is not."""
+        if not np.isfinite(actions).all():
+            k = int(np.argmax(~np.isfinite(actions).all(axis=1)))
+            raise ValueError(f"action of slot {k} ({self._views[k].agent} in world {self._views[k].world_index}) is not finite: {actions[k].tolist()}") from None
+
+    def _step_through_batch(self, actions: np.ndarray):
+        """step_wait through BatchEnv.step, which runs a learned opponent."""
+        self._check_finite(actions)
+        actions = actions.reshape(self.worlds, self.per_world, 2)
         n = self.batch.n_wolves
         if self._side == "wolves":
             out = self.batch.step(actions, None)
@@ -191,7 +228,9 @@ class WolfpackVecEnv(VecEnv):
         done_world = out["terminated"] | out["truncated"]
         dones = np.repeat(done_world, self.per_world)
         self.step_infos = {k: out[k] for k in _STEP_INFO_KEYS}
-        infos = self._step_infos(out, done_world)
+        infos: list[Mapping[str, Any]] = [RUNNING_INFO] * self.num_envs
+        if done_world.any():
+            self._fill_ended_infos(infos, self.step_infos, self._obs(out, "final_obs"))
         return obs, rewards, dones, infos
 
     def close(self) -> None:
@@ -242,17 +281,14 @@ class WolfpackVecEnv(VecEnv):
             info["outcome_name"] = OUTCOMES[info["outcome"]]
         return infos
 
-    def _step_infos(self, out: dict, done_world: np.ndarray) -> list[Mapping[str, Any]]:
-        """SB3's per-slot infos of a step: :data:`RUNNING_INFO` for running worlds' slots, a
-        dict for each slot of a world that ended (see the module docstring)."""
-        infos: list[Mapping[str, Any]] = [RUNNING_INFO] * self.num_envs
-        ended = np.flatnonzero(done_world)
-        if ended.size == 0:
-            return infos
+    def _fill_ended_infos(self, infos: list, step_infos: Mapping[str, np.ndarray], final_obs: np.ndarray) -> None:
+        """Puts a dict into ``infos`` (SB3's per-slot infos of a step, :data:`RUNNING_INFO`
+        elsewhere) for each slot of a world that ended (see the module docstring);
+        ``final_obs`` [slots, D] holds their last observations."""
+        ended = np.flatnonzero(step_infos["terminated"] | step_infos["truncated"])
         # Only the ended worlds' rows: the dicts are built for them alone.
-        rows = {k: out[k][ended] for k in _INFO_KEYS}
+        rows = {k: step_infos[k][ended] for k in _INFO_KEYS}
         ended_infos = self._slot_infos(rows)
-        final_obs = self._obs(out, "final_obs")
         per = self.per_world
         for r, e in enumerate(ended.tolist()):
             truncated = bool(rows["truncated"][r] and not rows["terminated"][r])
@@ -261,8 +297,6 @@ class WolfpackVecEnv(VecEnv):
                 info["terminal_observation"] = final_obs[e * per + i]
                 info["TimeLimit.truncated"] = truncated
                 infos[e * per + i] = info
-        return infos
-
 
 
 def make_vec_env(

@@ -10,7 +10,7 @@ use std::sync::mpsc::{channel, RecvTimeoutError};
 use std::time::Duration;
 
 use numpy::ndarray::{Array, IxDyn};
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -364,6 +364,36 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyR
     Ok(d)
 }
 
+/// `obj` as a float32 C-contiguous array of exactly `shape`, or None (no error built: this is
+/// the fast paths' test, whose callers fall back to the checked path).
+fn exact_actions<'py, D: numpy::ndarray::Dimension>(obj: &Bound<'py, PyAny>, shape: &[usize]) -> Option<numpy::PyReadonlyArray<'py, f32, D>> {
+    let arr = obj.cast::<numpy::PyArray<f32, D>>().ok()?;
+    if arr.shape() != shape || !arr.is_c_contiguous() {
+        return None;
+    }
+    arr.try_readonly().ok()
+}
+
+/// `step`'s fast test: the actions of both sides as `step` takes them, or None when one is
+/// not exactly what it must be (float32, C-contiguous, [E, K, 2]), is missing for a learning
+/// side or given for a scripted one.
+fn exact_step_actions<'py>(
+    env: &BatchEnv,
+    wolf_actions: Option<&Bound<'py, PyAny>>,
+    target_actions: Option<&Bound<'py, PyAny>>,
+) -> Option<(Option<PyReadonlyArray3<'py, f32>>, Option<PyReadonlyArray3<'py, f32>>)> {
+    let e = env.num_envs();
+    let l = env.learners();
+    let side = |obj: Option<&Bound<'py, PyAny>>, learns: bool, k: usize| -> Option<Option<PyReadonlyArray3<'py, f32>>> {
+        match (obj.filter(|o| !o.is_none()), learns) {
+            (None, false) => Some(None),
+            (Some(o), true) => exact_actions(o, &[e, k, 2]).map(Some),
+            _ => None,
+        }
+    };
+    Some((side(wolf_actions, l.wolves(), env.n_wolves())?, side(target_actions, l.targets(), env.n_targets())?))
+}
+
 fn slice_of<'a>(a: &'a Option<PyReadonlyArray3<'_, f32>>) -> PyResult<&'a [f32]> {
     match a {
         Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string())),
@@ -452,6 +482,93 @@ impl PyBatchEnv {
         let env = &mut self.inner;
         let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
         step_output_to_py(py, &self.inner, out)
+    }
+
+    /// `step` when the actions are exactly what it takes (float32, C-contiguous, [E, K, 2],
+    /// given for exactly the learning sides); otherwise None, and nothing moves: the caller
+    /// (`wolfpack.BatchEnv.step`) then checks and converts them and calls `step`. Errors of
+    /// the step itself (a non-finite action) are raised as `step` raises them.
+    #[pyo3(signature = (wolf_actions=None, target_actions=None))]
+    fn try_step<'py>(&mut self, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some((wa, ta)) = exact_step_actions(&self.inner, wolf_actions, target_actions) else {
+            return Ok(None);
+        };
+        let (ws, ts) = (slice_of(&wa)?, slice_of(&ta)?);
+        let env = &mut self.inner;
+        let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
+        step_output_to_py(py, &self.inner, out).map(Some)
+    }
+
+    /// For wolfpack's SB3 VecEnv (`wolfpack.vec_env`), whose slots are the learning agents of
+    /// every world, world-major (wolves first when both sides learn): one step from the
+    /// slots' actions, float32 [E*K, 2], C-contiguous (K = N, M or N+M by this batch's
+    /// learners). None, and nothing moves, when the actions are not exactly that or no side
+    /// learns. Else (obs, rewards, dones, infos, final_obs): rewards float32 [E*K] and dones
+    /// bool [E*K] per slot (a slot is done when its world terminated or was truncated);
+    /// infos a dict of `outcome`, `capture_step`, `cornered_step`, `energy`, `collisions`,
+    /// `distance`, `terminated`, `truncated`, `steps` as `step` returns them; obs [E*K, D]
+    /// when one side learns, (obs_wolves [E, N, Dw], obs_targets [E, M, Dt]) when both do;
+    /// final_obs the same for the last observations of the episodes that ended, or None when
+    /// no world ended this step. Errors as `step` raises them.
+    fn step_slots<'py>(&mut self, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<Option<Bound<'py, PyTuple>>> {
+        let (e, n, m) = (self.inner.num_envs(), self.inner.n_wolves(), self.inner.n_targets());
+        let (dw, dt) = (self.inner.wolf_obs_dim(), self.inner.target_obs_dim());
+        let l = self.inner.learners();
+        let k = if l.wolves() { n } else { 0 } + if l.targets() { m } else { 0 };
+        if k == 0 {
+            return Ok(None);
+        }
+        let Some(a) = exact_actions::<numpy::Ix2>(actions, &[e * k, 2]) else {
+            return Ok(None);
+        };
+        let flat = a.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?;
+        // Both sides: each world's row is its wolves' actions, then its targets'.
+        let (split_w, split_t): (Vec<f32>, Vec<f32>) = if l.wolves() && l.targets() {
+            let (mut w, mut t) = (Vec::with_capacity(e * n * 2), Vec::with_capacity(e * m * 2));
+            for row in flat.chunks_exact(k * 2) {
+                w.extend_from_slice(&row[..n * 2]);
+                t.extend_from_slice(&row[n * 2..]);
+            }
+            (w, t)
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        let (ws, ts): (&[f32], &[f32]) = match (l.wolves(), l.targets()) {
+            (true, true) => (&split_w, &split_t),
+            (true, false) => (flat, &[]),
+            _ => (&[], flat),
+        };
+        let env = &mut self.inner;
+        let o = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
+        let done_world: Vec<bool> = o.terminated.iter().zip(&o.truncated).map(|(a, b)| *a || *b).collect();
+        let ended = done_world.iter().any(|d| *d);
+        let dones: Vec<bool> = done_world.iter().flat_map(|d| std::iter::repeat_n(*d, k)).collect();
+        let rewards: Vec<f32> = match (l.wolves(), l.targets()) {
+            (true, true) => o.rewards_wolves.chunks_exact(n).zip(o.rewards_targets.chunks_exact(m)).flat_map(|(w, t)| w.iter().chain(t).copied()).collect(),
+            (true, false) => o.rewards_wolves,
+            _ => o.rewards_targets,
+        };
+        let obs_of = |w: Vec<f32>, t: Vec<f32>| -> PyResult<Bound<'py, PyAny>> {
+            Ok(match (l.wolves(), l.targets()) {
+                (true, true) => PyTuple::new(py, [array(py, w, &[e, n, dw])?, array(py, t, &[e, m, dt])?])?.into_any(),
+                (true, false) => array(py, w, &[e * n, dw])?,
+                _ => array(py, t, &[e * m, dt])?,
+            })
+        };
+        let obs = obs_of(o.obs_wolves, o.obs_targets)?;
+        let final_obs = if ended { obs_of(o.final_obs_wolves, o.final_obs_targets)? } else { py.None().into_bound(py) };
+        let d = PyDict::new(py);
+        d.set_item(intern!(py, "outcome"), PyArray1::from_vec(py, o.outcome))?;
+        d.set_item(intern!(py, "capture_step"), array(py, o.capture_step, &[e, m])?)?;
+        d.set_item(intern!(py, "cornered_step"), array(py, o.cornered_step, &[e, m])?)?;
+        d.set_item(intern!(py, "energy"), array(py, o.energy, &[e, n + m])?)?;
+        d.set_item(intern!(py, "collisions"), array(py, o.collisions, &[e, n + m])?)?;
+        d.set_item(intern!(py, "distance"), array(py, o.distance, &[e, n + m])?)?;
+        d.set_item(intern!(py, "terminated"), PyArray1::from_vec(py, o.terminated))?;
+        d.set_item(intern!(py, "truncated"), PyArray1::from_vec(py, o.truncated))?;
+        d.set_item(intern!(py, "steps"), PyArray1::from_vec(py, o.steps))?;
+        let out = [obs, PyArray1::from_vec(py, rewards).into_any(), PyArray1::from_vec(py, dones).into_any(), d.into_any(), final_obs];
+        PyTuple::new(py, out).map(Some)
     }
 
     /// The current observations and infos of every world, as a step would return them (no
