@@ -1,7 +1,7 @@
 //! Agent bodies (isosceles triangles) and their overlap tests.
 
 use super::polygon::polygon_contains;
-use crate::math::{cross, unit, Vec2, FRAC_PI_2};
+use crate::math::{cross, unit, Vec2};
 
 /// The body of an agent at pose (p, θ) (SPEC §1.2): the pose point is the base midpoint,
 /// the apex lies `height` ahead, the base corners `base/2` to either side.
@@ -26,7 +26,10 @@ impl BodyFrame {
     #[inline]
     pub fn new(theta: f64, base: f64, height: f64) -> Self {
         let fwd = unit(theta);
-        let side = unit(theta + FRAC_PI_2);
+        // unit(θ + π/2) is fwd turned a quarter: (−sin θ, cos θ), exactly, with no second
+        // sin_cos (it differs from the rounded sin_cos(θ + π/2) in the last bit or so; SPEC's
+        // body is the exact one).
+        let side = Vec2::new(-fwd.y, fwd.x);
         Self { fwd, ahead: fwd * height, half_base: side * (0.5 * base) }
     }
 
