@@ -24,6 +24,8 @@ pub struct Neighbours {
     /// Agent a's obstacles are `index[start[a]..start[a + 1]]`.
     start: Vec<u32>,
     index: Vec<u32>,
+    /// Each obstacle's squared cull radius this step (scratch of `build`).
+    reach2: Vec<f64>,
 }
 
 /// How far beyond an obstacle's bounding disc an agent's pose point must be for that obstacle
@@ -42,10 +44,15 @@ impl Neighbours {
         self.start.clear();
         self.index.clear();
         self.start.push(0);
+        // The radii once per obstacle, not once per agent and obstacle.
+        self.reach2.clear();
+        self.reach2.extend(obstacles.iter().map(|o| {
+            let r = (o.radius + cut) * (1.0 + SLACK_REL) + SLACK_ABS;
+            r * r
+        }));
         for p in points {
-            for (k, o) in obstacles.iter().enumerate() {
-                let r = (o.radius + cut) * (1.0 + SLACK_REL) + SLACK_ABS;
-                if (p - o.center).norm_squared() <= r * r {
+            for (k, (o, &r2)) in obstacles.iter().zip(&self.reach2).enumerate() {
+                if (p - o.center).norm_squared() <= r2 {
                     self.index.push(k as u32);
                 }
             }
