@@ -249,8 +249,12 @@ impl BatchEnv {
     pub fn target_obs_dim(&self) -> usize {
         target_dim(&self.params)
     }
-    pub fn world(&self, e: usize) -> Option<&World> {
-        self.slots.get(e).map(|s| &s.world)
+    /// World `e`, with every polygon's vertices at its current pose (the batch places only
+    /// the polygons its agents can reach or see while stepping; this places the rest).
+    pub fn world(&mut self, e: usize) -> Option<&World> {
+        let s = self.slots.get_mut(e)?;
+        s.world.settle_obstacles();
+        Some(&s.world)
     }
     /// Entries in one world's global state row ([`crate::state`]).
     pub fn state_dim(&self) -> usize {
@@ -656,6 +660,9 @@ fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layou
         None => World::new_episode_prevalidated(params.clone(), seed, episode)?,
     };
     let (n, m) = (world.n_wolves(), world.n_targets());
+    // Every reader of a batch world's polygons places what it reads (write_obs, world()).
+    let mut world = world;
+    world.lazy_obstacles = true;
     Ok(Slot { rewards: RewardState::new(&world), world, seed, episode, observer: Observer::default(), wolf_cmds: vec![Command::default(); n], target_cmds: vec![Command::default(); m] })
 }
 
@@ -695,10 +702,17 @@ fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Lea
 }
 
 fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
-    let w = &s.world;
     if obs_w.is_empty() && obs_t.is_empty() {
         return;
     }
+    // The lidar reads the vertices of the polygons within its range: place those of a lazy
+    // world (the step placed only the ones the agents could touch or avoid).
+    let lidar = &s.world.params.env.lidar;
+    if lidar.rays > 0 {
+        let range = lidar.range;
+        s.world.place_for_lidar(!obs_w.is_empty(), !obs_t.is_empty(), range);
+    }
+    let w = &s.world;
     s.observer.prepare(w);
     if !obs_w.is_empty() {
         let d = obs_w.len() / w.n_wolves();
@@ -782,6 +796,52 @@ pub fn encode(mode: ActionMode, theta: f64, v_d: f64, theta_d: f64, v_max: f64, 
 mod tests {
     use super::*;
     use std::time::Duration;
+
+    /// The batch's worlds place only the polygons their agents can reach or see: every
+    /// observation it writes must equal, bit for bit, the observation of the same world with
+    /// every polygon placed. Many polygons, a long lidar and learned (random) actions on both
+    /// sides, through autoresets.
+    #[test]
+    fn lazily_placed_polygons_change_no_observation() {
+        use rand::{Rng, SeedableRng};
+        let mut p = Params::default();
+        p.obstacles.static_polygons = 8;
+        p.obstacles.moving_polygons = 8;
+        p.env.lidar.range = 4.0;
+        let (e, n, m) = (4, p.world.wolves, p.world.targets);
+        let mut env = BatchEnv::new(p.clone(), e, Learners::All, 9, true, Some(1)).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
+        let (mut stale_seen, mut checked) = (0, 0);
+        for _ in 0..400 {
+            let wa: Vec<f32> = (0..e * n * 2).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let ta: Vec<f32> = (0..e * m * 2).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let out = env.step(&wa, &ta).unwrap();
+            for (k, s) in env.slots.iter().enumerate() {
+                stale_seen += s.world.obstacles.iter().filter(|o| !o.placed).count();
+                let mut w = s.world.clone();
+                w.settle_obstacles();
+                let mut observer = Observer::default();
+                observer.prepare(&w);
+                let mut want = vec![0f32; dw];
+                for i in 0..n {
+                    observer.wolf(&w, i, &mut want);
+                    let got = &out.obs_wolves[(k * n + i) * dw..(k * n + i + 1) * dw];
+                    assert!(got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "world {k} wolf {i}");
+                }
+                let mut want = vec![0f32; dt];
+                for j in 0..m {
+                    observer.target(&w, j, &mut want);
+                    let got = &out.obs_targets[(k * m + j) * dt..(k * m + j + 1) * dt];
+                    assert!(got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "world {k} target {j}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(stale_seen > 1000 && checked == 1600, "polygons were left unplaced {stale_seen} times");
+        // world() hands out every polygon placed.
+        assert!(env.world(0).unwrap().obstacles.iter().all(|o| o.placed));
+    }
 
     #[test]
     fn share_maps_in_item_order_whatever_the_threads_and_chunks() {

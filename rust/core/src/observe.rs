@@ -241,13 +241,10 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
         d = Vec2::new(c * d.x - s * d.y, s * d.x + c * d.y);
     }
     for ob in obstacles {
-        let to = ob.center - me.pos;
-        // Far beyond range by the squared distance first (no square root; the slack keeps
-        // this on the safe side of the exact test below, which decides).
-        let reach = (range + ob.radius) * (1.0 + 1e-9) + 1e-9;
-        if to.norm_squared() > reach * reach {
+        if !lidar_reaches(ob, me.pos, range) {
             continue;
         }
+        let to = ob.center - me.pos;
         let dc = to.norm();
         if dc - ob.radius >= range {
             continue;
@@ -282,6 +279,16 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
         *o = (b / range).clamp(0.0, 1.0) as f32;
     }
     rays
+}
+
+/// Whether the lidar of an agent at `p` looks at obstacle `ob` at all: its bounding disc is not
+/// beyond `range` by the squared distance (no square root; the slack keeps this on the safe
+/// side of the exact test that follows it). A lazy world places exactly these polygons before
+/// observing ([`World::place_for_lidar`]).
+#[inline]
+pub(crate) fn lidar_reaches(ob: &Obstacle, p: Vec2, range: f64) -> bool {
+    let reach = (range + ob.radius) * (1.0 + 1e-9) + 1e-9;
+    (ob.center - p).norm_squared() <= reach * reach
 }
 
 /// Distance from `o` (inside the arena) along the unit direction `d` to the arena's boundary.

@@ -65,7 +65,7 @@ fn splitting_the_batch_does_not_change_any_world() {
         assert_eq!(w.outcome, [x.outcome, y.outcome].concat());
     }
     for k in 0..4 {
-        let (env, i) = if k < 2 { (&a, k) } else { (&b, k - 2) };
+        let (env, i) = if k < 2 { (&mut a, k) } else { (&mut b, k - 2) };
         assert_eq!(whole.world_seed(k), env.world_seed(i));
         assert_eq!(whole.world(k).unwrap().wolves, env.world(i).unwrap().wolves);
     }

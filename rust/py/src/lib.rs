@@ -616,8 +616,9 @@ impl PyBatchEnv {
     /// interaction [(N+M), (N+M)] uint8, captured [M], cornered [M] (ever cornered), obstacles (list of dicts: kind, moving,
     /// center, radius, angle, vertices [world], local [at angle 0]), step,
     /// outcome, seed, episode.
-    fn world_state<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
-        let w = self.inner.world(index).ok_or_else(|| PyValueError::new_err(format!("world index {index} out of range (num_envs = {})", self.inner.num_envs())))?;
+    fn world_state<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
+        let num_envs = self.inner.num_envs();
+        let w = self.inner.world(index).ok_or_else(|| PyValueError::new_err(format!("world index {index} out of range (num_envs = {num_envs})")))?;
         let (n, m) = (w.n_wolves(), w.n_targets());
         let pose = |a: &wolfpack_core::world::AgentState| [a.pos.x, a.pos.y, a.theta, a.v, a.omega];
         let d = PyDict::new(py);

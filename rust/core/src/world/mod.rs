@@ -127,9 +127,10 @@ pub struct World {
     /// Place a polygon's vertices only when an agent could reach it this step (its bounding
     /// disc within the cull distance of a pose point) instead of after every move: a sin_cos
     /// and a rotation of 7–15 vertices for each of the other polygons, ≈ 8 % of a step of the
-    /// documented scenario. Only the episode runner sets it, on worlds nothing else reads: the
-    /// vertices of the other polygons are stale between steps there. Laws that read every
-    /// obstacle (bvc, formation) get every polygon placed.
+    /// documented scenario, and at large batches the memory traffic of writing them. Laws that
+    /// read every obstacle (bvc, formation) get every polygon placed. Only the episode runner
+    /// and the batch set it, on worlds whose every reader places what it reads first: the
+    /// lidar ([`World::place_for_lidar`]), `BatchEnv::world` ([`World::settle_obstacles`]).
     pub(crate) lazy_obstacles: bool,
     /// Set when a step produced a non-finite command or pose (see [`World::fault`]); the world
     /// is then done and does not move again.
@@ -282,6 +283,36 @@ impl World {
         self.wolf_bodies.prefetch();
         self.target_bodies.prefetch();
         self.near.prefetch();
+    }
+
+    /// Places the vertices of every polygon a lazy world left behind ([`Obstacle::vertices`]
+    /// is then current for all of them); a no-op for any other world.
+    pub fn settle_obstacles(&mut self) {
+        self.obstacles.iter_mut().for_each(Obstacle::ensure_placed);
+    }
+
+    /// Places the polygons the lidar can reach from the observed agents (wolves and/or
+    /// targets): those it does not cull by its own squared-distance test, `observe.rs`'s
+    /// `lidar_reach`, which this shares so that both decide alike.
+    pub(crate) fn place_for_lidar(&mut self, wolves: bool, targets: bool, range: f64) {
+        let agents: &[AgentState] = match (wolves, targets) {
+            (true, false) => &self.wolves,
+            (false, true) => &self.targets,
+            (false, false) => return,
+            (true, true) => {
+                for o in &mut self.obstacles {
+                    if !o.placed && self.wolves.iter().chain(&self.targets).any(|a| crate::observe::lidar_reaches(o, a.pos, range)) {
+                        o.ensure_placed();
+                    }
+                }
+                return;
+            }
+        };
+        for o in &mut self.obstacles {
+            if !o.placed && agents.iter().any(|a| crate::observe::lidar_reaches(o, a.pos, range)) {
+                o.ensure_placed();
+            }
+        }
     }
 
     /// The body triangle of an agent state.
