@@ -168,6 +168,9 @@ pub struct BatchEnv {
     pool: Option<rayon::ThreadPool>,
     threads: Option<usize>,
     track_laws: bool,
+    /// Bumped when a step starts: the pool's workers wait for the next step by spinning on
+    /// it for a short while ([`linger`]) instead of going to sleep.
+    epoch: Arc<AtomicUsize>,
 }
 
 impl BatchEnv {
@@ -201,7 +204,7 @@ impl BatchEnv {
             Some(t) => Some(rayon::ThreadPoolBuilder::new().num_threads(t - 1).build().map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, threads, track_laws: false };
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, threads, track_laws: false, epoch: Arc::new(AtomicUsize::new(0)) };
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
         let worlds: Vec<Result<Slot>> = share(env.pool.as_ref(), env.participants(), (0..num_envs).collect(), MAX_CHUNK, g);
         env.slots = worlds.into_iter().collect::<Result<_>>()?;
@@ -465,7 +468,16 @@ impl BatchEnv {
             map_ahead(self.slots.iter_mut().zip(outs).enumerate(), &ahead, &f)
         } else {
             let (participants, chunk) = (self.participants(), self.chunk());
-            share_ahead(self.pool.as_ref(), participants, self.slots.iter_mut().zip(outs).enumerate().collect(), chunk, ahead, f)
+            // Ends the workers' wait for this step (see `linger`) before handing them work.
+            let epoch = self.epoch.fetch_add(1, Ordering::AcqRel) + 1;
+            let r = share_ahead(self.pool.as_ref(), participants, self.slots.iter_mut().zip(outs).enumerate().collect(), chunk, ahead, f);
+            if let Some(pool) = &self.pool {
+                for _ in 1..participants {
+                    let e = self.epoch.clone();
+                    pool.spawn(move || linger(&e, epoch));
+                }
+            }
+            r
         };
         results.into_iter().collect::<Result<()>>()?;
         Ok(out)
@@ -640,6 +652,23 @@ fn spawn_and_drain<'s, F: Fn() + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, 
             std::hint::spin_loop();
         } else {
             std::thread::yield_now();
+        }
+    }
+}
+
+/// How long a worker keeps waiting, awake, for the next step after finishing its part of
+/// one. A sleeping worker takes tens of µs to wake on a VM (a futex wake and the hypervisor
+/// scheduling the vCPU), as much as a quarter of a 64-world step; between two steps of a
+/// training loop the caller is away for far less than this.
+const LINGER: std::time::Duration = std::time::Duration::from_micros(300);
+
+/// A pool worker's wait for the next step: spins while `epoch` still reads `since` (no step
+/// has started since) and for at most [`LINGER`]; then the worker is free to sleep.
+fn linger(epoch: &AtomicUsize, since: usize) {
+    let start = std::time::Instant::now();
+    while epoch.load(Ordering::Acquire) == since && start.elapsed() < LINGER {
+        for _ in 0..64 {
+            std::hint::spin_loop();
         }
     }
 }
@@ -841,6 +870,32 @@ mod tests {
         assert!(stale_seen > 1000 && checked == 1600, "polygons were left unplaced {stale_seen} times");
         // world() hands out every polygon placed.
         assert!(env.world(0).unwrap().obstacles.iter().all(|o| o.placed));
+    }
+
+    #[test]
+    fn a_lingering_worker_stops_waiting_when_a_step_starts_or_after_the_linger() {
+        use std::time::Instant;
+        // A step started since: no wait at all.
+        let epoch = Arc::new(AtomicUsize::new(5));
+        let t = Instant::now();
+        linger(&epoch, 4);
+        assert!(t.elapsed() < LINGER);
+        // Nothing starts: the wait ends by itself (it never holds a worker for long).
+        let t = Instant::now();
+        linger(&epoch, 5);
+        assert!(t.elapsed() >= LINGER && t.elapsed() < Duration::from_secs(5));
+        // A step starting while it waits ends it.
+        let e = epoch.clone();
+        let waiter = std::thread::spawn(move || {
+            let t = Instant::now();
+            while t.elapsed() < Duration::from_secs(60) && e.load(Ordering::Acquire) == 5 {
+                linger(&e, 5);
+            }
+            e.load(Ordering::Acquire)
+        });
+        std::thread::sleep(Duration::from_millis(20));
+        epoch.fetch_add(1, Ordering::AcqRel);
+        assert_eq!(waiter.join().unwrap(), 6);
     }
 
     #[test]
