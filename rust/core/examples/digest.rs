@@ -3,7 +3,8 @@
 //! trajectory digest) and every agent's observation bits at every step (the observation
 //! digest), and prints the outcome counts. A change whose digests are unchanged changed no bit
 //! of any trajectory or observation; one that changes them must be checked against the oracles
-//! (tests/test_oracles.py) and the outcome statistics instead (BENCHMARKS.md, "Optimisations").
+//! (tests/test_alignment.py, tests/test_obs_alignment.py) and the outcome statistics instead
+//! (BENCHMARKS.md, "Optimisations").
 //!
 //! ```text
 //! cargo run --release -p wolfpack-core --example digest -- [EPISODES]   # default 200

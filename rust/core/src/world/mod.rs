@@ -295,21 +295,10 @@ impl World {
     /// targets): those it does not cull by its own squared-distance test, `observe.rs`'s
     /// `lidar_reach`, which this shares so that both decide alike.
     pub(crate) fn place_for_lidar(&mut self, wolves: bool, targets: bool, range: f64) {
-        let agents: &[AgentState] = match (wolves, targets) {
-            (true, false) => &self.wolves,
-            (false, true) => &self.targets,
-            (false, false) => return,
-            (true, true) => {
-                for o in &mut self.obstacles {
-                    if !o.placed && self.wolves.iter().chain(&self.targets).any(|a| crate::observe::lidar_reaches(o, a.pos, range)) {
-                        o.ensure_placed();
-                    }
-                }
-                return;
-            }
-        };
+        let observed = |side: &[AgentState], on: bool| if on { side.len() } else { 0 };
+        let (n, m) = (observed(&self.wolves, wolves), observed(&self.targets, targets));
         for o in &mut self.obstacles {
-            if !o.placed && agents.iter().any(|a| crate::observe::lidar_reaches(o, a.pos, range)) {
+            if !o.placed && self.wolves[..n].iter().chain(&self.targets[..m]).any(|a| crate::observe::lidar_reaches(o, a.pos, range)) {
                 o.ensure_placed();
             }
         }
