@@ -20,8 +20,11 @@ pub mod seed000;
 use rand::Rng;
 
 use crate::config::{Params, TargetPolicy, WolfPolicy};
-use crate::math::Vec2;
 use crate::world::{AgentState, Obstacle};
+
+// The laws' memories are data the world holds between steps: they live with the world's
+// state (world::memory), and the laws take them from there.
+pub use crate::world::memory::{DangerMemory, TargetMemory, WolfMemory};
 
 /// What a controller asks of an agent for one step: linear speed v ≥ 0 and turn rate ω.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -74,28 +77,6 @@ pub fn target_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory,
     }
 }
 
-/// An emergency (SPEC §4) lasts several steps; the law remembers where it flees.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct DangerMemory {
-    /// Steps of the current emergency still to run, this one included (0: none).
-    pub steps_left: u32,
-    /// Heading (rad) straight away from the dangerous interval's bisector.
-    pub away: f64,
-}
-
-/// What the seed000 law carries from one step to the next for one wolf.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct WolfMemory {
-    /// The previous step's attraction vector ν₁ (zero before the first step).
-    pub last_attraction: Vec2,
-    pub danger: DangerMemory,
-    /// bvc and formation: the target as the pack last sensed it (None before any sighting)...
-    pub known_target: Option<AgentState>,
-    /// ... and the step of that sighting (formation predicts where it went since).
-    pub last_seen_t: u32,
-    /// bvc: the hunting point assigned at the last assignment.
-    pub bvc_point: Option<usize>,
-}
 
 /// Global communication (SPEC §1.4) for the laws that hunt a position (bvc, formation): when
 /// any wolf hunting wolf i's target senses it, the whole pack learns the target's state and the
@@ -139,11 +120,6 @@ impl<V: Clone> LastCall<V> {
     }
 }
 
-/// What the scripted target laws carry from one step to the next for one target.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct TargetMemory {
-    pub danger: DangerMemory,
-}
 
 /// A hand-made scene for the laws' unit tests: owns what a [`Snapshot`] borrows.
 #[cfg(test)]

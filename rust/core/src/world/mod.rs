@@ -1,6 +1,7 @@
 //! The world of SPEC §1: arena, agents, obstacles, sensing, one synchronous step.
 
 mod layout;
+pub mod memory;
 mod near;
 mod obstacles;
 mod spawn;
@@ -8,6 +9,7 @@ mod expert;
 mod step;
 
 pub use layout::{Layout, LayoutObstacle};
+pub use memory::{DangerMemory, TargetMemory, WolfMemory};
 pub use near::{cull_distance, near, Near, Neighbours};
 pub use obstacles::{Obstacle, ObstacleKind};
 
@@ -20,7 +22,7 @@ use crate::config::Params;
 use crate::error::Result;
 use crate::geometry::{body_triangle, BodyFrame};
 use crate::math::Vec2;
-use crate::policies::{Command, TargetMemory, WolfMemory};
+use crate::policies::Command;
 
 /// Pose and last command of one unicycle agent, plus its accumulated energy.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
