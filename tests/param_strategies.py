@@ -69,9 +69,11 @@ def _scalar_in(key: str, lo: float | None = None, hi: float | None = None) -> st
 def valid_value(key: str) -> st.SearchStrategy:
     d = default_of(key)
     if key == "world.border":
-        # Each coordinate in range, width and height in [1, 1e4].
+        # Each coordinate in range, width and height in [1, 1e4] as the validator computes them
+        # (x_max − x_min in floating point: x_min + 1 − x_min can round to 0.9999999999999998).
         return st.tuples(st.floats(-1e4, 9e3), st.floats(-1e4, 9e3), st.floats(1, 1e3), st.floats(1, 1e3)).map(
-            lambda t: [t[0], t[1], min(t[0] + t[2], 1e4), min(t[1] + t[3], 1e4)])
+            lambda t: [t[0], t[1], min(t[0] + t[2], 1e4), min(t[1] + t[3], 1e4)]).filter(
+            lambda b: 1 <= b[2] - b[0] <= 1e4 and 1 <= b[3] - b[1] <= 1e4)
     if isinstance(d, (list, tuple)):  # an ordered [lo, hi] pair
         return st.lists(_scalar_in(key), min_size=2, max_size=2).map(sorted)
     return _scalar_in(key)
