@@ -73,7 +73,10 @@ impl Observer {
     /// call it once per state before [`Observer::wolf`] / [`Observer::target`].
     pub fn prepare(&mut self, w: &World) {
         self.trig.clear();
-        self.trig.extend(w.wolves.iter().chain(&w.targets).map(|a| a.theta.sin_cos()));
+        // The step's body frames hold unit(θ) of every pose they were made for, from the same
+        // sin_cos: take it from there ([`World::heading_sin_cos`]), one sin_cos per agent less.
+        let n = w.n_wolves();
+        self.trig.extend((0..n + w.n_targets()).map(|k| w.heading_sin_cos(k)));
         let rays = w.params.env.lidar.rays;
         if self.ray_turn.0 != rays {
             self.ray_turn = (rays, ray_turn(rays));

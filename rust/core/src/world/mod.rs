@@ -287,6 +287,18 @@ impl World {
         self.near.prefetch();
     }
 
+    /// `θ.sin_cos()` of agent `k` (wolves 0..N, then targets), bit for bit: from the body frame
+    /// the last step left when it is that of the agent's current pose, else computed.
+    #[inline]
+    pub fn heading_sin_cos(&self, k: usize) -> (f64, f64) {
+        let n = self.n_wolves();
+        let (a, bodies, i) = if k < n { (&self.wolves[k], &self.wolf_bodies, k) } else { (&self.targets[k - n], &self.target_bodies, k - n) };
+        match bodies.fwd_at(i, a) {
+            Some(f) => (f.y, f.x),
+            None => a.theta.sin_cos(),
+        }
+    }
+
     /// Places the vertices of every polygon a lazy world left behind ([`Obstacle::vertices`]
     /// is then current for all of them); a no-op for any other world.
     pub fn settle_obstacles(&mut self) {
@@ -348,6 +360,13 @@ impl Bodies {
                 self.poses.push((a.pos, a.theta, frame.fwd));
             }
         }
+    }
+
+    /// `unit(θ)` of agent `i` if the body kept for it is that of `a`'s pose.
+    #[inline]
+    fn fwd_at(&self, i: usize, a: &AgentState) -> Option<Vec2> {
+        let (pos, theta, fwd) = *self.poses.get(i)?;
+        (pos == a.pos && theta == a.theta).then_some(fwd)
     }
 
     /// Agent `i`'s travel direction `unit(θ)` at the synced pose.
