@@ -683,15 +683,14 @@ impl Drop for CountOnDrop<'_> {
 }
 
 fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layout>) -> Result<Slot> {
-    let world = match layout {
+    let mut world = match layout {
         Some(l) => World::from_layout_episode(params.clone(), seed, episode, l)?,
         // BatchEnv::new validated the params; they are immutable behind the Arc since.
         None => World::new_episode_prevalidated(params.clone(), seed, episode)?,
     };
-    let (n, m) = (world.n_wolves(), world.n_targets());
     // Every reader of a batch world's polygons places what it reads (write_obs, world()).
-    let mut world = world;
     world.lazy_obstacles = true;
+    let (n, m) = (world.n_wolves(), world.n_targets());
     Ok(Slot { rewards: RewardState::new(&world), world, seed, episode, observer: Observer::default(), wolf_cmds: vec![Command::default(); n], target_cmds: vec![Command::default(); m] })
 }
 

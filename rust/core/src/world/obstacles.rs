@@ -37,9 +37,9 @@ pub struct Obstacle {
     pub local: Vec<Vec2>,
     /// Polygon vertices in world coordinates at the current pose (empty for circles).
     pub vertices: Vec<Vec2>,
-    /// Whether `vertices` are those of the current pose. Always true outside a step, except
-    /// in the episode runner's own worlds (see `World::lazy_obstacles`), where only the
-    /// polygons that an agent could reach are placed.
+    /// Whether `vertices` are those of the current pose. Always true, except in lazy worlds
+    /// (the episode runner's and the batch's, see `World::lazy_obstacles`), whose polygons
+    /// are placed only when something reads them.
     pub(crate) placed: bool,
 }
 
