@@ -130,7 +130,8 @@ pub fn polygon_visible_extent(poly: &[Vec2], center: Vec2, p: Vec2, range: f64) 
     // One pass over the edges does the three walks of [`visible_extent_by_passes`] — closest
     // point, containment, clipping by the disc — and keeps the clipped endpoints; the rest is
     // that function's, on the same numbers in the same order, so the result is the same bit
-    // for bit (a test checks). ≈ 25 % of the query's cost was walking the edges three times.
+    // for bit (a test checks). It saved ≈ 0.5 % of a scripted step's instructions: the
+    // edges' arithmetic, not the walking, is what a query costs.
     const ENDS: usize = 64;
     let mut ends = [Vec2::zeros(); ENDS];
     let mut count = 0usize;
