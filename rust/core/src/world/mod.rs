@@ -350,7 +350,7 @@ impl Bodies {
     /// Makes the bodies those of `agents`' current poses: kept where the poses are unchanged
     /// (the last step left them), rebuilt otherwise (spawns, layouts, tests moving agents).
     pub(crate) fn sync(&mut self, agents: &[AgentState], base: f64, height: f64) {
-        let current = self.tris.len() == agents.len() && self.poses.iter().zip(agents).all(|(q, a)| (q.0, q.1) == (a.pos, a.theta));
+        let current = self.tris.len() == agents.len() && agents.iter().enumerate().all(|(i, a)| self.fwd_at(i, a).is_some());
         if !current {
             self.tris.clear();
             self.poses.clear();

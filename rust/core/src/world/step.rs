@@ -4,7 +4,6 @@
 use parry2d_f64::transformation::convex_hull;
 
 use super::{AgentState, Outcome, World};
-use super::Obstacle;
 use crate::config::{CaptureRule, Params, SideParams, WolfPolicy};
 use crate::geometry::{triangle_contains, triangles_overlap, BodyFrame};
 use crate::math::{wrap, Point2, Vec2};
@@ -80,7 +79,7 @@ impl World {
                 self.obstacles[k as usize].ensure_placed();
             }
         } else {
-            self.obstacles.iter_mut().for_each(Obstacle::ensure_placed);
+            self.settle_obstacles();
         }
     }
 
