@@ -159,18 +159,18 @@ fn pieces<T>(buf: &mut [T], per: usize, e: usize) -> Vec<&mut [T]> {
     buf.chunks_mut(per).collect()
 }
 
-/// The lengths of a step's observation arrays — wolves', targets', and the final ones of
-/// both — while their worlds' tasks fill them ([`BatchEnv::alloc`]).
+/// The lengths of a step's observation arrays, the wolves' and the targets', while their
+/// worlds' tasks fill them ([`BatchEnv::alloc`]).
 #[derive(Debug, Clone, Copy)]
-struct ObsLens([usize; 4]);
+struct ObsLens([usize; 2]);
 
 impl ObsLens {
-    /// Gives the four arrays of `o` their lengths.
+    /// Gives the two arrays of `o` their lengths.
     ///
     /// # Safety
     /// The first `len` elements of each array's spare capacity must have been written.
     unsafe fn set(self, o: &mut StepOutput) {
-        for (v, len) in [&mut o.obs_wolves, &mut o.obs_targets, &mut o.final_obs_wolves, &mut o.final_obs_targets].into_iter().zip(self.0) {
+        for (v, len) in [&mut o.obs_wolves, &mut o.obs_targets].into_iter().zip(self.0) {
             debug_assert!(v.is_empty() && v.capacity() >= len);
             // SAFETY: capacity ≥ len (`alloc`), and the caller vouches for the contents.
             unsafe { v.set_len(len) };
@@ -181,22 +181,21 @@ impl ObsLens {
 /// One world's share of a [`StepOutput`] before its task starts: its pieces of the
 /// observation arrays not yet written.
 struct PendingOut<'a> {
-    /// obs of the wolves, of the targets, final obs of the wolves, of the targets.
-    obs: [&'a mut [MaybeUninit<f32>]; 4],
+    /// obs of the wolves, of the targets.
+    obs: [&'a mut [MaybeUninit<f32>]; 2],
     /// The rest, with empty observation slices.
     rest: SlotOut<'a>,
 }
 
 impl<'a> PendingOut<'a> {
-    /// Zeroes the observation pieces (the final ones stay zero unless the episode ends) and
-    /// hands out the whole share.
+    /// Zeroes the observation pieces and hands out the whole share.
     fn zeroed(self) -> SlotOut<'a> {
-        let [obs_w, obs_t, fin_w, fin_t] = self.obs.map(|piece| {
+        let [obs_w, obs_t] = self.obs.map(|piece| {
             piece.fill(MaybeUninit::new(0.0));
             // SAFETY: every element was just written; MaybeUninit<f32> has f32's layout.
             unsafe { &mut *(piece as *mut [MaybeUninit<f32>] as *mut [f32]) }
         });
-        SlotOut { obs_w, obs_t, fin_w, fin_t, ..self.rest }
+        SlotOut { obs_w, obs_t, ..self.rest }
     }
 }
 
@@ -398,10 +397,12 @@ impl BatchEnv {
         out
     }
 
-    /// A step's outputs, the four observation arrays allocated but still empty: their
-    /// lengths come back separately, and each world's task zeroes and fills its own pieces
+    /// A step's outputs, the two observation arrays allocated but still empty: their lengths
+    /// come back separately, and each world's task zeroes and fills its own pieces
     /// ([`PendingOut::zeroed`]). Zeroing them here, on the caller's thread, cost ≈ 5 % of a
     /// two-thread step: the caller wrote every line before the other thread wrote it again.
+    /// The final observations stay `calloc`'d: a world writes its piece only when its episode
+    /// ends, and a large batch's zero pages are then never touched at all.
     fn alloc(&self) -> (StepOutput, ObsLens) {
         let e = self.slots.len();
         let (n, m) = (self.n_wolves(), self.n_targets());
@@ -409,8 +410,7 @@ impl BatchEnv {
         let dt = if self.learners.targets() { m * self.target_obs_dim() } else { 0 };
         // Rewards of both sides, always: evaluation reports the scripted side's return too.
         let (rw, rt) = (n, m);
-        let fin = usize::from(self.autoreset);
-        let lens = ObsLens([e * dw, e * dt, fin * e * dw, fin * e * dt]);
+        let lens = ObsLens([e * dw, e * dt]);
         let out = StepOutput {
             obs_wolves: Vec::with_capacity(lens.0[0]),
             obs_targets: Vec::with_capacity(lens.0[1]),
@@ -418,8 +418,8 @@ impl BatchEnv {
             rewards_targets: vec![0.0; e * rt],
             terminated: vec![false; e],
             truncated: vec![false; e],
-            final_obs_wolves: Vec::with_capacity(lens.0[2]),
-            final_obs_targets: Vec::with_capacity(lens.0[3]),
+            final_obs_wolves: if self.autoreset { vec![0.0; e * dw] } else { Vec::new() },
+            final_obs_targets: if self.autoreset { vec![0.0; e * dt] } else { Vec::new() },
             outcome: vec![0; e],
             steps: vec![0; e],
             capture_step: vec![-1; e * m],
@@ -434,15 +434,16 @@ impl BatchEnv {
     fn split<'a>(&self, o: &'a mut StepOutput, lens: ObsLens, e: usize) -> Vec<PendingOut<'a>> {
         let (n, m) = (self.n_wolves(), self.n_targets());
         let per = |v: usize| if e == 0 { 0 } else { v / e };
-        let [dw, dt, fw, ft] = lens.0.map(per);
+        let [dw, dt] = lens.0.map(per);
         let (rw, rt) = (per(o.rewards_wolves.len()), per(o.rewards_targets.len()));
+        let (fw, ft) = (per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()));
         let unfilled = |v: &'a mut Vec<f32>, len: usize| &mut v.spare_capacity_mut()[..len];
         let mut obs_w = pieces(unfilled(&mut o.obs_wolves, lens.0[0]), dw, e).into_iter();
         let mut obs_t = pieces(unfilled(&mut o.obs_targets, lens.0[1]), dt, e).into_iter();
         let mut rew_w = pieces(&mut o.rewards_wolves, rw, e).into_iter();
         let mut rew_t = pieces(&mut o.rewards_targets, rt, e).into_iter();
-        let mut fin_w = pieces(unfilled(&mut o.final_obs_wolves, lens.0[2]), fw, e).into_iter();
-        let mut fin_t = pieces(unfilled(&mut o.final_obs_targets, lens.0[3]), ft, e).into_iter();
+        let mut fin_w = pieces(&mut o.final_obs_wolves, fw, e).into_iter();
+        let mut fin_t = pieces(&mut o.final_obs_targets, ft, e).into_iter();
         let mut term = o.terminated.iter_mut();
         let mut trunc = o.truncated.iter_mut();
         let mut outcome = o.outcome.iter_mut();
@@ -454,7 +455,7 @@ impl BatchEnv {
         let mut dist = pieces(&mut o.distance, n + m, e).into_iter();
         (0..e)
             .map(|_| PendingOut {
-                obs: [obs_w.next().unwrap(), obs_t.next().unwrap(), fin_w.next().unwrap(), fin_t.next().unwrap()],
+                obs: [obs_w.next().unwrap(), obs_t.next().unwrap()],
                 rest: SlotOut {
                 obs_w: &mut [],
                 obs_t: &mut [],
@@ -462,8 +463,8 @@ impl BatchEnv {
                 rew_t: rew_t.next().unwrap(),
                 term: term.next().unwrap(),
                 trunc: trunc.next().unwrap(),
-                fin_w: &mut [],
-                fin_t: &mut [],
+                fin_w: fin_w.next().unwrap(),
+                fin_t: fin_t.next().unwrap(),
                 outcome: outcome.next().unwrap(),
                 steps: steps.next().unwrap(),
                 capture_step: cap.next().unwrap(),
