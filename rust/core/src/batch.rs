@@ -151,14 +151,6 @@ struct SlotOut<'a> {
     distance: &'a mut [f64],
 }
 
-/// `buf` cut into `e` consecutive pieces of `per` (empty pieces when `per` is 0).
-fn pieces<T>(buf: &mut [T], per: usize, e: usize) -> Vec<&mut [T]> {
-    if per == 0 {
-        return (0..e).map(|_| <&mut [T]>::default()).collect();
-    }
-    buf.chunks_mut(per).collect()
-}
-
 /// The lengths of a step's observation arrays, the wolves' and the targets', while their
 /// worlds' tasks fill them ([`BatchEnv::alloc`]).
 #[derive(Debug, Clone, Copy)]
@@ -379,18 +371,17 @@ impl BatchEnv {
     pub fn observe_all(&mut self) -> StepOutput {
         let (mut out, lens) = self.alloc();
         let e = self.slots.len();
-        let outs = self.split(&mut out, lens, e);
-        let f = |(s, o): (&mut Slot, PendingOut)| {
+        let (n, m) = (self.n_wolves(), self.n_targets());
+        let (participants, chunk) = if self.steps_inline() { (1, e) } else { (self.participants(), self.chunk()) };
+        let outs = OutPieces::new(&mut out, lens, e, n, m);
+        let slots = Disjoint::new(&mut self.slots);
+        par_for(self.pool.as_ref(), participants, e, chunk, |_| {}, |i| {
+            // SAFETY: par_for hands out each world index once.
+            let (s, o) = unsafe { (slots.item(i), outs.world(i)) };
             let mut o = o.zeroed();
             write_obs(s, o.obs_w, o.obs_t);
             write_infos(&s.world, &mut o);
-        };
-        if self.steps_inline() {
-            self.slots.iter_mut().zip(outs).for_each(f);
-        } else {
-            let (participants, chunk) = (self.participants(), self.chunk());
-            share(self.pool.as_ref(), participants, self.slots.iter_mut().zip(outs).collect(), chunk, f);
-        }
+        });
         // SAFETY: every world's task zeroed its pieces of the observation arrays (`zeroed`),
         // and the pieces tile them.
         unsafe { lens.set(&mut out) };
@@ -431,52 +422,6 @@ impl BatchEnv {
         (out, lens)
     }
 
-    fn split<'a>(&self, o: &'a mut StepOutput, lens: ObsLens, e: usize) -> Vec<PendingOut<'a>> {
-        let (n, m) = (self.n_wolves(), self.n_targets());
-        let per = |v: usize| if e == 0 { 0 } else { v / e };
-        let [dw, dt] = lens.0.map(per);
-        let (rw, rt) = (per(o.rewards_wolves.len()), per(o.rewards_targets.len()));
-        let (fw, ft) = (per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()));
-        let unfilled = |v: &'a mut Vec<f32>, len: usize| &mut v.spare_capacity_mut()[..len];
-        let mut obs_w = pieces(unfilled(&mut o.obs_wolves, lens.0[0]), dw, e).into_iter();
-        let mut obs_t = pieces(unfilled(&mut o.obs_targets, lens.0[1]), dt, e).into_iter();
-        let mut rew_w = pieces(&mut o.rewards_wolves, rw, e).into_iter();
-        let mut rew_t = pieces(&mut o.rewards_targets, rt, e).into_iter();
-        let mut fin_w = pieces(&mut o.final_obs_wolves, fw, e).into_iter();
-        let mut fin_t = pieces(&mut o.final_obs_targets, ft, e).into_iter();
-        let mut term = o.terminated.iter_mut();
-        let mut trunc = o.truncated.iter_mut();
-        let mut outcome = o.outcome.iter_mut();
-        let mut steps = o.steps.iter_mut();
-        let mut cap = pieces(&mut o.capture_step, m, e).into_iter();
-        let mut corn = pieces(&mut o.cornered_step, m, e).into_iter();
-        let mut energy = pieces(&mut o.energy, n + m, e).into_iter();
-        let mut coll = pieces(&mut o.collisions, n + m, e).into_iter();
-        let mut dist = pieces(&mut o.distance, n + m, e).into_iter();
-        (0..e)
-            .map(|_| PendingOut {
-                obs: [obs_w.next().unwrap(), obs_t.next().unwrap()],
-                rest: SlotOut {
-                obs_w: &mut [],
-                obs_t: &mut [],
-                rew_w: rew_w.next().unwrap(),
-                rew_t: rew_t.next().unwrap(),
-                term: term.next().unwrap(),
-                trunc: trunc.next().unwrap(),
-                fin_w: fin_w.next().unwrap(),
-                fin_t: fin_t.next().unwrap(),
-                outcome: outcome.next().unwrap(),
-                steps: steps.next().unwrap(),
-                capture_step: cap.next().unwrap(),
-                cornered_step: corn.next().unwrap(),
-                energy: energy.next().unwrap(),
-                collisions: coll.next().unwrap(),
-                distance: dist.next().unwrap(),
-                },
-            })
-            .collect()
-    }
-
     /// Checks an action array of one side: its length and that every entry is finite. The
     /// error names the world and the agent.
     fn check_actions(&self, actions: &[f32], side: &str, per_world: usize) -> Result<()> {
@@ -506,38 +451,49 @@ impl BatchEnv {
         }
         let (mut out, lens) = self.alloc();
         let e = self.slots.len();
-        let outs = self.split(&mut out, lens, e);
         let learners = self.learners;
         let autoreset = self.autoreset;
         let params = self.params.clone();
         let track = self.track_laws;
-        let f = |(i, (s, o)): (usize, (&mut Slot, PendingOut))| {
+        let inline = self.steps_inline();
+        let (participants, chunk) = if inline { (1, e) } else { (self.participants(), self.chunk()) };
+        let outs = OutPieces::new(&mut out, lens, e, n, m);
+        let slots = Disjoint::new(&mut self.slots);
+        // The error of the lowest-numbered world that failed, whichever thread saw it first.
+        let failed: Mutex<Option<(usize, Error)>> = Mutex::new(None);
+        let f = |i: usize| {
+            // SAFETY: par_for hands out each world index once.
+            let (s, o) = unsafe { (slots.item(i), outs.world(i)) };
             let o = o.zeroed();
             let wa = if learners.wolves() { &wolf_actions[i * n * 2..(i + 1) * n * 2] } else { &[][..] };
             let ta = if learners.targets() { &target_actions[i * m * 2..(i + 1) * m * 2] } else { &[][..] };
             let (seed, episode) = (s.seed, s.episode);
-            step_slot(s, o, wa, ta, learners, autoreset, &params, track).map_err(|e| match e {
-                Error::NonFinite(m) => Error::NonFinite(format!("world {i} (seed {seed}, episode {episode}): {m}")),
-                other => other,
-            })
-        };
-        let ahead = |(_, (s, _)): &(usize, (&mut Slot, PendingOut))| s.prefetch();
-        let results: Vec<Result<()>> = if self.steps_inline() {
-            map_ahead(self.slots.iter_mut().zip(outs).enumerate(), &ahead, &f)
-        } else {
-            let (participants, chunk) = (self.participants(), self.chunk());
-            // Ends the workers' wait for this step (see `linger`) before handing them work.
-            let epoch = self.epoch.fetch_add(1, Ordering::AcqRel) + 1;
-            let r = share_ahead(self.pool.as_ref(), participants, self.slots.iter_mut().zip(outs).enumerate().collect(), chunk, ahead, f);
-            if let Some(pool) = &self.pool {
-                for _ in 1..participants {
-                    let e = self.epoch.clone();
-                    pool.spawn(move || linger(&e, epoch));
+            if let Err(err) = step_slot(s, o, wa, ta, learners, autoreset, &params, track) {
+                let err = match err {
+                    Error::NonFinite(m) => Error::NonFinite(format!("world {i} (seed {seed}, episode {episode}): {m}")),
+                    other => other,
+                };
+                let mut first = failed.lock().unwrap_or_else(|p| p.into_inner());
+                if first.as_ref().is_none_or(|(k, _)| i < *k) {
+                    *first = Some((i, err));
                 }
             }
-            r
         };
-        results.into_iter().collect::<Result<()>>()?;
+        // SAFETY (the hint): par_for hints only the next index of the chunk the calling
+        // thread is stepping, which no other thread touches.
+        let ahead = |i: usize| unsafe { slots.item(i) }.prefetch();
+        // Ends the workers' wait for this step (see `linger`) before handing them work.
+        let epoch = self.epoch.fetch_add(1, Ordering::AcqRel) + 1;
+        par_for(self.pool.as_ref(), participants, e, chunk, ahead, f);
+        if let (false, Some(pool)) = (inline, &self.pool) {
+            for _ in 1..participants {
+                let e = self.epoch.clone();
+                pool.spawn(move || linger(&e, epoch));
+            }
+        }
+        if let Some((_, err)) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
+            return Err(err);
+        }
         // SAFETY: every world's task zeroed its pieces of the observation arrays before
         // anything else (`zeroed`), and the pieces tile them.
         unsafe { lens.set(&mut out) };
@@ -627,55 +583,61 @@ impl BatchEnv {
     }
 }
 
-/// Maps `f` over `items` on `participants` threads: the calling thread and `participants − 1`
-/// jobs on `pool` (rayon's global pool when `None`). Items go out in chunks of `chunk` from a
-/// shared queue, so a slow world (one that spawns its next episode) is balanced out; results
-/// come back in item order, so nothing depends on which thread ran what.
+/// Maps `f` over `items` on `participants` threads (see [`par_for`]); the results come back
+/// in item order, so nothing depends on which thread ran what.
+fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    let n = items.len();
+    let mut items: Vec<Option<T>> = items.into_iter().map(Some).collect();
+    let mut results: Vec<Option<R>> = std::iter::repeat_with(|| None).take(n).collect();
+    let (cells, out) = (Disjoint::new(&mut items), Disjoint::new(&mut results));
+    par_for(pool, participants, n, chunk, |_| {}, |i| {
+        // SAFETY: par_for hands out each index once.
+        let (item, result) = unsafe { (cells.item(i), out.item(i)) };
+        *result = item.take().map(&f);
+    });
+    results.into_iter().map(|r| r.expect("par_for calls f once for every index")).collect()
+}
+
+/// Calls `f(i)` once for every `i` in `0..n`, on `participants` threads: the calling thread
+/// and `participants − 1` jobs on `pool` (rayon's global pool when `None`). Indices go out in
+/// chunks of `chunk`; within a chunk each next index is hinted to `ahead` before `f` takes the
+/// current one (the step uses it to start loading the next world's memory, [`Slot::prefetch`]).
+///
+/// Each participant has a home share of the chunks — a contiguous run, the same run every
+/// call — and takes its own chunks first, front to back; one that runs out takes the last
+/// chunk of the participant with the most left ([`HomeQueues`]). So a world is stepped by the
+/// same thread step after step and its memory stays in that core's cache, while a slow world
+/// (one that spawns its next episode) is still balanced out. (With one shared queue the worlds
+/// moved between the cores every step: two threads stepped 64 worlds 1.4× as fast as one,
+/// against 2.0× for two separate batches of 32.)
+///
+/// Only indices are handed out: each task finds its world and its pieces of the outputs from
+/// the index ([`Disjoint`], [`OutPieces`]). Building a list of per-world items and output
+/// slices first was serial work on the caller, ≈ 6 % of a two-thread step at E = 8192.
 ///
 /// Why not `pool.install(par_iter)`: the caller (Python's thread) then only waits, and every
 /// step pays for waking all workers and for waking the caller again (≈ 40–80 µs on this VM,
 /// as much as 16 worlds' work); here the caller starts at once and only the extra threads are
 /// woken.
-fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    share_ahead(pool, participants, items, chunk, |_: &T| {}, f)
-}
-
-/// `items.map(f)`, calling `ahead` on each next item before `f` takes the current one: the
-/// step uses it to start loading the next world's memory while it steps this one
-/// ([`Slot::prefetch`]).
-fn map_ahead<T, R>(items: impl Iterator<Item = T>, ahead: &impl Fn(&T), f: &impl Fn(T) -> R) -> Vec<R> {
-    let mut items = items.peekable();
-    let mut out = Vec::with_capacity(items.size_hint().0);
-    while let Some(item) = items.next() {
-        if let Some(next) = items.peek() {
-            ahead(next);
+fn par_for(pool: Option<&rayon::ThreadPool>, participants: usize, n: usize, chunk: usize, ahead: impl Fn(usize) + Sync, f: impl Fn(usize) + Sync) {
+    let run = |range: std::ops::Range<usize>| {
+        for i in range.clone() {
+            if i + 1 < range.end {
+                ahead(i + 1);
+            }
+            f(i);
         }
-        out.push(f(item));
-    }
-    out
-}
-
-/// [`share`], with [`map_ahead`]'s `ahead` called on each task's next item.
-///
-/// Each participant has a home share of the items — a contiguous run of chunks, the same run
-/// every call — and takes its own chunks first, front to back; one that runs out takes the
-/// last chunk of the participant with the most left. So a world is stepped by the same thread
-/// step after step and its memory stays in that core's cache, while a slow world (one that
-/// spawns its next episode) is still balanced out. (With one shared queue the worlds moved
-/// between the cores every step: two threads stepped 64 worlds 1.4× as fast as one, against
-/// 2.0× for two separate batches of 32.)
-fn share_ahead<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, ahead: impl Fn(&T) + Sync, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    if participants <= 1 {
+    };
+    if participants <= 1 || n == 0 {
         // One thread: the caller's, with no pool to hand anything to.
-        return map_ahead(items.into_iter(), &ahead, &f);
+        run(0..n);
+        return;
     }
-    let queue = Mutex::new(HomeQueues::new(items, chunk, participants));
-    let done: Mutex<Vec<(usize, Vec<R>)>> = Mutex::new(Vec::new());
+    let queue = Mutex::new(HomeQueues::new(n, chunk, participants));
     let drain = |home: usize| loop {
         let next = queue.lock().unwrap_or_else(|p| p.into_inner()).take(home);
-        let Some((start, part)) = next else { break };
-        let out: Vec<R> = map_ahead(part.into_iter(), &ahead, &f);
-        done.lock().unwrap_or_else(|p| p.into_inner()).push((start, out));
+        let Some(range) = next else { break };
+        run(range);
     };
     let extra = participants - 1;
     let (drain, finished) = (&drain, &AtomicUsize::new(0));
@@ -683,33 +645,156 @@ fn share_ahead<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants:
         Some(p) => p.in_place_scope(|s| spawn_and_drain(s, extra, drain, finished)),
         None => rayon::in_place_scope(|s| spawn_and_drain(s, extra, drain, finished)),
     }
-    let mut done = done.into_inner().unwrap_or_else(|p| p.into_inner());
-    done.sort_unstable_by_key(|(start, _)| *start);
-    done.into_iter().flat_map(|(_, out)| out).collect()
 }
 
-/// The chunks of [`share_ahead`]: `chunks[k]` holds items `starts[k]..` until taken, and
+/// Shared access, from many threads, to distinct elements of a slice borrowed for `'a`: the
+/// callers promise (unsafely) that no element is taken twice at once — [`par_for`] hands out
+/// each index once.
+struct Disjoint<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: a Disjoint is a `&mut [T]` whose elements go to different threads.
+unsafe impl<T: Send> Send for Disjoint<'_, T> {}
+unsafe impl<T: Send> Sync for Disjoint<'_, T> {}
+
+impl<'a, T> Disjoint<'a, T> {
+    fn new(s: &'a mut [T]) -> Self {
+        Self { ptr: s.as_mut_ptr(), len: s.len(), _borrow: std::marker::PhantomData }
+    }
+
+    /// Element `i`.
+    ///
+    /// # Safety
+    /// No other reference to element `i` may be alive while this one is.
+    #[inline]
+    unsafe fn item(&self, i: usize) -> &'a mut T {
+        assert!(i < self.len, "index {i} of {}", self.len);
+        // SAFETY: in bounds; exclusive by the caller's promise.
+        unsafe { &mut *self.ptr.add(i) }
+    }
+
+    /// Elements `i·per .. (i+1)·per` (empty when `per` is 0).
+    ///
+    /// # Safety
+    /// No other reference to any of these elements may be alive while this one is.
+    #[inline]
+    unsafe fn piece(&self, i: usize, per: usize) -> &'a mut [T] {
+        if per == 0 {
+            return &mut [];
+        }
+        assert!((i + 1) * per <= self.len, "piece {i} of {per} in {}", self.len);
+        // SAFETY: in bounds; exclusive by the caller's promise.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(i * per), per) }
+    }
+}
+
+/// A step's outputs as every world's pieces ([`OutPieces::world`]), each found from the world's
+/// index by the task that steps it.
+struct OutPieces<'a> {
+    obs_w: Disjoint<'a, MaybeUninit<f32>>,
+    obs_t: Disjoint<'a, MaybeUninit<f32>>,
+    rew_w: Disjoint<'a, f32>,
+    rew_t: Disjoint<'a, f32>,
+    term: Disjoint<'a, bool>,
+    trunc: Disjoint<'a, bool>,
+    fin_w: Disjoint<'a, f32>,
+    fin_t: Disjoint<'a, f32>,
+    outcome: Disjoint<'a, u8>,
+    steps: Disjoint<'a, u32>,
+    capture_step: Disjoint<'a, i64>,
+    cornered_step: Disjoint<'a, i64>,
+    energy: Disjoint<'a, f64>,
+    collisions: Disjoint<'a, u32>,
+    distance: Disjoint<'a, f64>,
+    /// Per world: obs, rewards and final obs of each side; targets; agents.
+    per: [usize; 8],
+}
+
+impl<'a> OutPieces<'a> {
+    /// The pieces of `o` (from [`BatchEnv::alloc`], observation arrays `lens` long) for `e`
+    /// worlds of `n` wolves and `m` targets.
+    fn new(o: &'a mut StepOutput, lens: ObsLens, e: usize, n: usize, m: usize) -> Self {
+        let per = |v: usize| if e == 0 { 0 } else { v / e };
+        let [dw, dt] = lens.0.map(per);
+        let per = [dw, dt, per(o.rewards_wolves.len()), per(o.rewards_targets.len()), per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()), m, n + m];
+        let unfilled = |v: &'a mut Vec<f32>, len: usize| Disjoint::new(&mut v.spare_capacity_mut()[..len]);
+        Self {
+            obs_w: unfilled(&mut o.obs_wolves, lens.0[0]),
+            obs_t: unfilled(&mut o.obs_targets, lens.0[1]),
+            rew_w: Disjoint::new(&mut o.rewards_wolves),
+            rew_t: Disjoint::new(&mut o.rewards_targets),
+            term: Disjoint::new(&mut o.terminated),
+            trunc: Disjoint::new(&mut o.truncated),
+            fin_w: Disjoint::new(&mut o.final_obs_wolves),
+            fin_t: Disjoint::new(&mut o.final_obs_targets),
+            outcome: Disjoint::new(&mut o.outcome),
+            steps: Disjoint::new(&mut o.steps),
+            capture_step: Disjoint::new(&mut o.capture_step),
+            cornered_step: Disjoint::new(&mut o.cornered_step),
+            energy: Disjoint::new(&mut o.energy),
+            collisions: Disjoint::new(&mut o.collisions),
+            distance: Disjoint::new(&mut o.distance),
+            per,
+        }
+    }
+
+    /// World `i`'s pieces.
+    ///
+    /// # Safety
+    /// No other reference to world `i`'s pieces may be alive while these are.
+    #[inline]
+    unsafe fn world(&self, i: usize) -> PendingOut<'a> {
+        let [dw, dt, rw, rt, fw, ft, m, agents] = self.per;
+        // SAFETY: distinct worlds' pieces are disjoint; world i's are exclusive by the caller.
+        unsafe {
+            PendingOut {
+                obs: [self.obs_w.piece(i, dw), self.obs_t.piece(i, dt)],
+                rest: SlotOut {
+                    obs_w: &mut [],
+                    obs_t: &mut [],
+                    rew_w: self.rew_w.piece(i, rw),
+                    rew_t: self.rew_t.piece(i, rt),
+                    term: self.term.item(i),
+                    trunc: self.trunc.item(i),
+                    fin_w: self.fin_w.piece(i, fw),
+                    fin_t: self.fin_t.piece(i, ft),
+                    outcome: self.outcome.item(i),
+                    steps: self.steps.item(i),
+                    capture_step: self.capture_step.piece(i, m),
+                    cornered_step: self.cornered_step.piece(i, m),
+                    energy: self.energy.piece(i, agents),
+                    collisions: self.collisions.piece(i, agents),
+                    distance: self.distance.piece(i, agents),
+                },
+            }
+        }
+    }
+}
+
+/// The chunks of [`par_for`]: chunk k is indices `k·chunk .. min((k+1)·chunk, n)`, and
 /// participant p's home is the run `homes[p].0..homes[p].1` of the chunks it has not taken.
-struct HomeQueues<T> {
-    chunks: Vec<Option<(usize, Vec<T>)>>,
+struct HomeQueues {
+    n: usize,
+    chunk: usize,
     homes: Vec<(usize, usize)>,
 }
 
-impl<T> HomeQueues<T> {
-    /// `items` in chunks of `chunk` (at least 1), in order, dealt to `participants` homes of
-    /// as equal a count of chunks as can be.
-    fn new(items: Vec<T>, chunk: usize, participants: usize) -> Self {
-        let (n, chunk) = (items.len(), chunk.max(1));
-        let mut items = items.into_iter();
-        let chunks: Vec<Option<(usize, Vec<T>)>> = (0..n).step_by(chunk).map(|start| Some((start, items.by_ref().take(chunk).collect()))).collect();
-        let c = chunks.len();
+impl HomeQueues {
+    /// `0..n` in chunks of `chunk` (at least 1), dealt in order to `participants` homes of as
+    /// equal a count of chunks as can be.
+    fn new(n: usize, chunk: usize, participants: usize) -> Self {
+        let chunk = chunk.max(1);
+        let c = n.div_ceil(chunk);
         let homes = (0..participants).map(|p| (p * c / participants, (p + 1) * c / participants)).collect();
-        Self { chunks, homes }
+        Self { n, chunk, homes }
     }
 
     /// The next chunk for participant `home` (taken modulo the participants): the front of its
     /// own run, else the back of the longest run left; `None` when every chunk is taken.
-    fn take(&mut self, home: usize) -> Option<(usize, Vec<T>)> {
+    fn take(&mut self, home: usize) -> Option<std::ops::Range<usize>> {
         let home = home % self.homes.len();
         let (front, back) = self.homes[home];
         let k = if front < back {
@@ -723,7 +808,7 @@ impl<T> HomeQueues<T> {
             self.homes[victim].1 -= 1;
             b - 1
         };
-        self.chunks[k].take()
+        Some(k * self.chunk..((k + 1) * self.chunk).min(self.n))
     }
 }
 
@@ -1013,48 +1098,52 @@ mod tests {
 
     #[test]
     fn each_participant_takes_its_home_chunks_first_then_the_back_of_the_longest_run() {
-        // 10 items in chunks of 2: chunks 0..5 start at 0, 2, 4, 6, 8; homes of 2 participants
-        // are chunks 0..2 and 2..5.
-        let mut q = HomeQueues::new((0..10).collect::<Vec<usize>>(), 2, 2);
-        let mut take = |p: usize| q.take(p).map(|(start, items)| (start, items.len()));
-        assert_eq!(take(1), Some((4, 2)));
-        assert_eq!(take(0), Some((0, 2)));
-        assert_eq!(take(0), Some((2, 2)));
+        // 10 indices in chunks of 2: chunks 0..5 start at 0, 2, 4, 6, 8; homes of 2
+        // participants are chunks 0..2 and 2..5.
+        let mut q = HomeQueues::new(10, 2, 2);
+        assert_eq!(q.take(1), Some(4..6));
+        assert_eq!(q.take(0), Some(0..2));
+        assert_eq!(q.take(0), Some(2..4));
         // Participant 0's run is done: it takes the last chunk of participant 1's.
-        assert_eq!(take(0), Some((8, 2)));
-        assert_eq!(take(1), Some((6, 2)));
-        assert_eq!(take(1), None);
-        assert_eq!(take(0), None);
-        // Homes beyond the participants wrap; more participants than chunks still hand out
-        // every chunk exactly once.
+        assert_eq!(q.take(0), Some(8..10));
+        assert_eq!(q.take(1), Some(6..8));
+        assert_eq!(q.take(1), None);
+        assert_eq!(q.take(0), None);
+        // Homes beyond the participants wrap; a last short chunk; more participants than
+        // chunks: every index is still handed out exactly once.
         for (participants, chunk, n) in [(3, 1, 2), (4, 3, 10), (2, 1, 0), (5, 7, 100)] {
-            let mut q = HomeQueues::new((0..n).collect::<Vec<usize>>(), chunk, participants);
+            let mut q = HomeQueues::new(n, chunk, participants);
             let mut seen = Vec::new();
             for round in 0.. {
                 match q.take(round * 7) {
-                    Some((start, items)) => {
-                        assert_eq!(items.first().copied().unwrap_or(start), start);
-                        seen.extend(items);
+                    Some(range) => {
+                        assert!(!range.is_empty() && range.len() <= chunk && range.start % chunk == 0);
+                        seen.extend(range);
                     }
                     None => break,
                 }
             }
             seen.sort_unstable();
-            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "{participants} participants, chunk {chunk}, {n} items");
+            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "{participants} participants, chunk {chunk}, {n} indices");
         }
     }
 
     #[test]
-    fn map_ahead_hints_each_next_item_once_before_the_current_one_is_mapped() {
-        let log = std::cell::RefCell::new(Vec::new());
-        let out = map_ahead((0..5).map(|k| k * 10), &|next: &i32| log.borrow_mut().push(format!("ahead {next}")), &|k: i32| {
-            log.borrow_mut().push(format!("map {k}"));
-            k + 1
+    fn par_for_hints_each_next_index_of_a_chunk_once_before_the_current_one_runs() {
+        let log = Mutex::new(Vec::new());
+        let push = |s: String| log.lock().unwrap().push(s);
+        par_for(None, 1, 5, 5, |next| push(format!("ahead {next}")), |i| push(format!("run {i}")));
+        let want = ["ahead 1", "run 0", "ahead 2", "run 1", "ahead 3", "run 2", "ahead 4", "run 3", "run 4"];
+        assert_eq!(*log.lock().unwrap(), want);
+        // Threads: every index runs once, and a hint never crosses into another chunk (that
+        // world may be another thread's).
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let runs: Vec<AtomicUsize> = (0..100).map(|_| AtomicUsize::new(0)).collect();
+        par_for(Some(&pool), 3, 100, 7, |next| assert_ne!(next % 7, 0, "hinted {next}, the start of a chunk"), |i| {
+            runs[i].fetch_add(1, Ordering::Relaxed);
         });
-        assert_eq!(out, vec![1, 11, 21, 31, 41]);
-        let want = ["ahead 10", "map 0", "ahead 20", "map 10", "ahead 30", "map 20", "ahead 40", "map 30", "map 40"];
-        assert_eq!(*log.borrow(), want);
-        assert!(map_ahead(std::iter::empty::<i32>(), &|_: &i32| panic!("nothing to hint"), &|k: i32| k).is_empty());
+        assert!(runs.iter().all(|r| r.load(Ordering::Relaxed) == 1));
+        par_for(Some(&pool), 2, 0, 4, |_| panic!("nothing to hint"), |_| panic!("nothing to run"));
     }
 
     /// A task that panics on a worker reaches the caller as a panic (the binding turns it
