@@ -59,6 +59,8 @@ pub struct Observer {
     trig: Vec<(f64, f64)>,
     /// The lidar's turn between neighbouring rays, (sin, cos) of 2π/K, and the K it is for.
     ray_turn: (usize, (f64, f64)),
+    /// The lidar's per-ray scratch, kept between calls.
+    rays: Rays,
 }
 
 impl Observer {
@@ -111,7 +113,7 @@ impl Observer {
             out[k] = if senses { 1.0 } else { 0.0 };
             k += 5;
         }
-        k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut out[k..k + p.env.lidar.rays]);
+        k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
         interaction_row(w, i, &mut out[k..]);
     }
 
@@ -138,7 +140,7 @@ impl Observer {
             }
             k += 5;
         }
-        k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut out[k..k + p.env.lidar.rays]);
+        k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
         interaction_row(w, w.n_wolves() + j, &mut out[k..]);
     }
 
@@ -198,7 +200,7 @@ fn write_relative(me: &AgentState, (s, c): (f64, f64), other: &AgentState, (so, 
 /// [`lidar_turned`] computing the heading's sin/cos and the rays' turn itself (tests).
 #[cfg(test)]
 fn lidar(p: &Params, me: &AgentState, obstacles: &[Obstacle], out: &mut [f32]) -> usize {
-    lidar_turned(p, me, me.theta.sin_cos(), ray_turn(out.len()), obstacles, out)
+    lidar_turned(p, me, me.theta.sin_cos(), ray_turn(out.len()), obstacles, &mut Rays::default(), out)
 }
 
 /// (sin, cos) of the angle between neighbouring rays of a `rays`-ray lidar.
@@ -209,39 +211,47 @@ fn ray_turn(rays: usize) -> (f64, f64) {
     (std::f64::consts::TAU / rays as f64).sin_cos()
 }
 
+/// The lidar's rays as columns — direction x, direction y, nearest hit so far (metres) —
+/// kept by the observer between calls: no 64-slot array zeroed per call, and the rays an
+/// obstacle could shorten are picked by one tight loop over the columns.
+#[derive(Debug, Clone, Default)]
+struct Rays {
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    best: Vec<f64>,
+}
+
 /// Lidar rays into `out` (its length is the ray count); returns that count. `(hs, hc)` is
 /// `(sin θ, cos θ)` of the agent's heading and `(s, c)` the rays' turn ([`ray_turn`]), both
 /// computed once by the observer.
 ///
 /// Each obstacle is tested only against the rays inside the cone of its bounding disc, and
 /// only where it could still beat the ray's nearest hit so far: the exact casts run a few
-/// times per agent instead of rays × obstacles times.
+/// times per agent instead of rays × obstacles times. Each obstacle first marks the rays it
+/// could shorten (a loop without branches over [`Rays`]' columns); the casts then run for
+/// the marked rays only.
 #[inline(never)]
-fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64, f64), obstacles: &[Obstacle], out: &mut [f32]) -> usize {
-    let rays = out.len();
-    if rays == 0 {
+fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64, f64), obstacles: &[Obstacle], rays: &mut Rays, out: &mut [f32]) -> usize {
+    let n = out.len();
+    if n == 0 {
         return 0;
     }
     let range = p.env.lidar.range;
     let origin = me.pos;
-    // Per ray: its direction and the nearest hit so far (metres), starting with the walls.
+    for col in [&mut rays.dx, &mut rays.dy, &mut rays.best] {
+        col.resize(n, 0.0);
+    }
+    let (dx, dy, best) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.best[..n]);
     // Ray k+1 is ray k turned by the rays' step (the observer's `ray_turn`): no sin/cos per
-    // ray, and none per agent (the heading's comes from the observer too). On the
-    // stack for up to 64 rays. (A plain array and loop: filling an ArrayVec through `extend`
-    // did not always inline and cost twice the arithmetic.)
-    let mut small = [(Vec2::zeros(), 0.0f64); 64];
-    let mut big: Vec<(Vec2, f64)>;
-    let rays_now: &mut [(Vec2, f64)] = if rays <= small.len() {
-        &mut small[..rays]
-    } else {
-        big = vec![(Vec2::zeros(), 0.0); rays];
-        &mut big
-    };
-    // `unit(θ)`, from the sin/cos the observer already holds.
+    // ray, and none per agent (the heading's comes from the observer too). `unit(θ)` first.
     let mut d = Vec2::new(hc, hs);
-    for slot in rays_now.iter_mut() {
-        *slot = (d, ray_walls(origin, d, &p.world.border).min(range));
+    for (x, y) in dx.iter_mut().zip(dy.iter_mut()) {
+        (*x, *y) = (d.x, d.y);
         d = Vec2::new(c * d.x - s * d.y, s * d.x + c * d.y);
+    }
+    // The walls first.
+    for ((b, &x), &y) in best.iter_mut().zip(dx.iter()).zip(dy.iter()) {
+        *b = ray_walls(origin, Vec2::new(x, y), &p.world.border).min(range);
     }
     for ob in obstacles {
         if !lidar_reaches(ob, me.pos, range) {
@@ -249,7 +259,8 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
         }
         let to = ob.center - me.pos;
         let dc = to.norm();
-        if dc - ob.radius >= range {
+        let near = dc - ob.radius;
+        if near >= range {
             continue;
         }
         // A ray can meet the obstacle only if its direction lies in the bounding disc's cone,
@@ -261,27 +272,36 @@ fn lidar_turned(p: &Params, me: &AgentState, (hs, hc): (f64, f64), (s, c): (f64,
         // From inside (only a moving obstacle can put an agent there) every ray reads 0; the
         // test is made once per obstacle, not per ray.
         let inside = if ob.is_polygon() { dc <= ob.radius && crate::geometry::polygon_contains(&ob.vertices, origin) } else { dc <= ob.radius };
-        for (dir, best) in rays_now.iter_mut() {
-            if dc - ob.radius >= *best || dir.dot(&to) < cone {
-                continue;
+        for block in (0..n).step_by(64) {
+            let end = (block + 64).min(n);
+            // The rays this obstacle could still shorten, as bits.
+            let mut marked = 0u64;
+            for k in block..end {
+                let keep = (near < best[k]) & (dx[k] * to.x + dy[k] * to.y >= cone);
+                marked |= u64::from(keep) << (k - block);
             }
-            let hit = if inside {
-                Some(0.0)
-            } else if ob.is_polygon() {
-                // dc + R bounds |v − origin| over the polygon's vertices.
-                ray_polygon_boundary_filtered(&ob.vertices, edge_filter_tolerance(dc + ob.radius), origin, *dir, *best)
-            } else {
-                ray_circle(origin, *dir, ob.center, ob.radius, *best)
-            };
-            if let Some(t) = hit {
-                *best = best.min(t);
+            while marked != 0 {
+                let k = block + marked.trailing_zeros() as usize;
+                marked &= marked - 1;
+                let dir = Vec2::new(dx[k], dy[k]);
+                let hit = if inside {
+                    Some(0.0)
+                } else if ob.is_polygon() {
+                    // dc + R bounds |v − origin| over the polygon's vertices.
+                    ray_polygon_boundary_filtered(&ob.vertices, edge_filter_tolerance(dc + ob.radius), origin, dir, best[k])
+                } else {
+                    ray_circle(origin, dir, ob.center, ob.radius, best[k])
+                };
+                if let Some(t) = hit {
+                    best[k] = best[k].min(t);
+                }
             }
         }
     }
-    for (o, (_, b)) in out.iter_mut().zip(rays_now.iter()) {
+    for (o, b) in out.iter_mut().zip(best.iter()) {
         *o = (b / range).clamp(0.0, 1.0) as f32;
     }
-    rays
+    n
 }
 
 /// Whether the lidar of an agent at `p` looks at obstacle `ob` at all: its bounding disc is not
