@@ -29,6 +29,22 @@ def test_repository_and_packaged_params_yaml_are_the_same_document():
     assert yaml.safe_load((REPO_ROOT / "params.yaml").read_text()) == yaml.safe_load(DEFAULT_PARAMS_PATH.read_text())
 
 
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """A SafeLoader that refuses a mapping with a key twice (PyYAML keeps the last silently)."""
+
+    def construct_mapping(self, node, deep=False):
+        keys = [self.construct_object(k, deep=deep) for k, _ in node.value]
+        twice = sorted({k for k in keys if keys.count(k) > 1})
+        if twice:
+            raise yaml.constructor.ConstructorError(None, None, f"duplicate keys {twice}", node.start_mark)
+        return super().construct_mapping(node, deep=deep)
+
+
+@pytest.mark.parametrize("path", [REPO_ROOT / "params.yaml", DEFAULT_PARAMS_PATH], ids=["repository", "packaged"])
+def test_params_yaml_spells_each_key_once(path):
+    yaml.load(path.read_text(), Loader=_UniqueKeyLoader)
+
+
 def test_load_params_is_the_rust_default():
     assert load_params() == _core.default_params()
     assert load_params(REPO_ROOT / "params.yaml") == _core.default_params()
