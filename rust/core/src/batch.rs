@@ -812,7 +812,7 @@ impl HomeQueues {
     }
 }
 
-/// [`share`]'s scope: `extra` jobs and the calling thread drain the same queue. The caller then
+/// [`par_for`]'s scope: `extra` jobs and the calling thread drain the same chunks. The caller then
 /// spins until every job has finished instead of going to sleep in the scope's wait: being
 /// woken again by the last worker costs tens of µs on a VM, as much as a few worlds' step.
 ///
