@@ -170,27 +170,6 @@ impl ObsLens {
     }
 }
 
-/// One world's share of a [`StepOutput`] before its task starts: its pieces of the
-/// observation arrays not yet written.
-struct PendingOut<'a> {
-    /// obs of the wolves, of the targets.
-    obs: [&'a mut [MaybeUninit<f32>]; 2],
-    /// The rest, with empty observation slices.
-    rest: SlotOut<'a>,
-}
-
-impl<'a> PendingOut<'a> {
-    /// Zeroes the observation pieces and hands out the whole share.
-    fn zeroed(self) -> SlotOut<'a> {
-        let [obs_w, obs_t] = self.obs.map(|piece| {
-            piece.fill(MaybeUninit::new(0.0));
-            // SAFETY: every element was just written; MaybeUninit<f32> has f32's layout.
-            unsafe { &mut *(piece as *mut [MaybeUninit<f32>] as *mut [f32]) }
-        });
-        SlotOut { obs_w, obs_t, ..self.rest }
-    }
-}
-
 pub struct BatchEnv {
     params: Arc<Params>,
     learners: Learners,
@@ -249,6 +228,16 @@ impl BatchEnv {
     /// observations ≈ 5–10 µs: below [`INLINE_BELOW`] worlds more threads only make it slower).
     fn steps_inline(&self) -> bool {
         self.participants() == 1 || self.slots.len() < INLINE_BELOW
+    }
+
+    /// How a step shares out its worlds ([`par_for`]): participants and chunk size, one
+    /// participant with every world in one chunk when it steps inline.
+    fn schedule(&self) -> (usize, usize) {
+        if self.steps_inline() {
+            (1, self.slots.len())
+        } else {
+            (self.participants(), self.chunk())
+        }
     }
 
     /// Threads that step worlds: the caller and the pool's workers ([`share`]).
@@ -372,25 +361,24 @@ impl BatchEnv {
         let (mut out, lens) = self.alloc();
         let e = self.slots.len();
         let (n, m) = (self.n_wolves(), self.n_targets());
-        let (participants, chunk) = if self.steps_inline() { (1, e) } else { (self.participants(), self.chunk()) };
+        let (participants, chunk) = self.schedule();
         let outs = OutPieces::new(&mut out, lens, e, n, m);
         let slots = Disjoint::new(&mut self.slots);
         par_for(self.pool.as_ref(), participants, e, chunk, |_| {}, |i| {
             // SAFETY: par_for hands out each world index once.
-            let (s, o) = unsafe { (slots.item(i), outs.world(i)) };
-            let mut o = o.zeroed();
+            let (s, mut o) = unsafe { (slots.item(i), outs.world(i)) };
             write_obs(s, o.obs_w, o.obs_t);
             write_infos(&s.world, &mut o);
         });
-        // SAFETY: every world's task zeroed its pieces of the observation arrays (`zeroed`),
-        // and the pieces tile them.
+        // SAFETY: every world's task zeroed its pieces of the observation arrays
+        // (`OutPieces::world`), and the pieces tile them.
         unsafe { lens.set(&mut out) };
         out
     }
 
     /// A step's outputs, the two observation arrays allocated but still empty: their lengths
     /// come back separately, and each world's task zeroes and fills its own pieces
-    /// ([`PendingOut::zeroed`]). Zeroing them here, on the caller's thread, cost ≈ 5 % of a
+    /// ([`OutPieces::world`]). Zeroing them here, on the caller's thread, cost ≈ 5 % of a
     /// two-thread step: the caller wrote every line before the other thread wrote it again.
     /// The final observations stay `calloc`'d: a world writes its piece only when its episode
     /// ends, and a large batch's zero pages are then never touched at all.
@@ -455,8 +443,7 @@ impl BatchEnv {
         let autoreset = self.autoreset;
         let params = self.params.clone();
         let track = self.track_laws;
-        let inline = self.steps_inline();
-        let (participants, chunk) = if inline { (1, e) } else { (self.participants(), self.chunk()) };
+        let (participants, chunk) = self.schedule();
         let outs = OutPieces::new(&mut out, lens, e, n, m);
         let slots = Disjoint::new(&mut self.slots);
         // The error of the lowest-numbered world that failed, whichever thread saw it first.
@@ -464,7 +451,6 @@ impl BatchEnv {
         let f = |i: usize| {
             // SAFETY: par_for hands out each world index once.
             let (s, o) = unsafe { (slots.item(i), outs.world(i)) };
-            let o = o.zeroed();
             let wa = if learners.wolves() { &wolf_actions[i * n * 2..(i + 1) * n * 2] } else { &[][..] };
             let ta = if learners.targets() { &target_actions[i * m * 2..(i + 1) * m * 2] } else { &[][..] };
             let (seed, episode) = (s.seed, s.episode);
@@ -485,7 +471,7 @@ impl BatchEnv {
         // Ends the workers' wait for this step (see `linger`) before handing them work.
         let epoch = self.epoch.fetch_add(1, Ordering::AcqRel) + 1;
         par_for(self.pool.as_ref(), participants, e, chunk, ahead, f);
-        if let (false, Some(pool)) = (inline, &self.pool) {
+        if let (true, Some(pool)) = (participants > 1, &self.pool) {
             for _ in 1..participants {
                 let e = self.epoch.clone();
                 pool.spawn(move || linger(&e, epoch));
@@ -495,7 +481,7 @@ impl BatchEnv {
             return Err(err);
         }
         // SAFETY: every world's task zeroed its pieces of the observation arrays before
-        // anything else (`zeroed`), and the pieces tile them.
+        // anything else (`OutPieces::world`), and the pieces tile them.
         unsafe { lens.set(&mut out) };
         Ok(out)
     }
@@ -741,34 +727,37 @@ impl<'a> OutPieces<'a> {
         }
     }
 
-    /// World `i`'s pieces.
+    /// World `i`'s pieces, its observation pieces zeroed here (by the world's own task, not
+    /// by the caller before the tasks start: see [`BatchEnv::alloc`]).
     ///
     /// # Safety
     /// No other reference to world `i`'s pieces may be alive while these are.
     #[inline]
-    unsafe fn world(&self, i: usize) -> PendingOut<'a> {
+    unsafe fn world(&self, i: usize) -> SlotOut<'a> {
         let [dw, dt, rw, rt, fw, ft, m, agents] = self.per;
+        let zeroed = |piece: &'a mut [MaybeUninit<f32>]| {
+            piece.fill(MaybeUninit::new(0.0));
+            // SAFETY: every element was just written; MaybeUninit<f32> has f32's layout.
+            unsafe { &mut *(piece as *mut [MaybeUninit<f32>] as *mut [f32]) }
+        };
         // SAFETY: distinct worlds' pieces are disjoint; world i's are exclusive by the caller.
         unsafe {
-            PendingOut {
-                obs: [self.obs_w.piece(i, dw), self.obs_t.piece(i, dt)],
-                rest: SlotOut {
-                    obs_w: &mut [],
-                    obs_t: &mut [],
-                    rew_w: self.rew_w.piece(i, rw),
-                    rew_t: self.rew_t.piece(i, rt),
-                    term: self.term.item(i),
-                    trunc: self.trunc.item(i),
-                    fin_w: self.fin_w.piece(i, fw),
-                    fin_t: self.fin_t.piece(i, ft),
-                    outcome: self.outcome.item(i),
-                    steps: self.steps.item(i),
-                    capture_step: self.capture_step.piece(i, m),
-                    cornered_step: self.cornered_step.piece(i, m),
-                    energy: self.energy.piece(i, agents),
-                    collisions: self.collisions.piece(i, agents),
-                    distance: self.distance.piece(i, agents),
-                },
+            SlotOut {
+                obs_w: zeroed(self.obs_w.piece(i, dw)),
+                obs_t: zeroed(self.obs_t.piece(i, dt)),
+                rew_w: self.rew_w.piece(i, rw),
+                rew_t: self.rew_t.piece(i, rt),
+                term: self.term.item(i),
+                trunc: self.trunc.item(i),
+                fin_w: self.fin_w.piece(i, fw),
+                fin_t: self.fin_t.piece(i, ft),
+                outcome: self.outcome.item(i),
+                steps: self.steps.item(i),
+                capture_step: self.capture_step.piece(i, m),
+                cornered_step: self.cornered_step.piece(i, m),
+                energy: self.energy.piece(i, agents),
+                collisions: self.collisions.piece(i, agents),
+                distance: self.distance.piece(i, agents),
             }
         }
     }
