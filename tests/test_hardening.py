@@ -644,3 +644,40 @@ def test_threaded_runs_work_in_a_forked_child_after_the_parent_used_its_pool():
         child.kill()
         pytest.fail("run_episodes hung in a forked child")
     assert child.exitcode == 0 and queue.get(timeout=5) == 3
+
+
+_FORKED_BATCH = None
+
+
+def _batch_steps_in_child(queue) -> None:
+    env = _FORKED_BATCH
+    obs = None
+    for _ in range(3):
+        obs = env.step(np.zeros((64, 5, 2), np.float32))["obs_wolves"]
+    queue.put(obs.shape)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="fork start method")
+def test_a_threaded_batch_made_before_a_fork_steps_in_the_child():
+    """A batch's crew of threads does not survive a fork: a child stepping a batch its parent
+    made (and stepped) must start a crew of its own, not wait forever for the parent's."""
+    import multiprocessing as mp
+
+    from wolfpack import BatchEnv
+
+    global _FORKED_BATCH
+    _FORKED_BATCH = BatchEnv(num_envs=64, learners="wolves", seed=0, threads=2)
+    _FORKED_BATCH.reset(seed=0)
+    want = _FORKED_BATCH.step(np.zeros((64, 5, 2), np.float32))["obs_wolves"].shape
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_batch_steps_in_child, args=(queue,))
+    child.start()
+    child.join(60)
+    if child.is_alive():
+        child.kill()
+        pytest.fail("BatchEnv.step hung in a forked child")
+    assert child.exitcode == 0 and queue.get(timeout=5) == want
+    # The parent's own crew still works.
+    assert _FORKED_BATCH.step(np.zeros((64, 5, 2), np.float32))["obs_wolves"].shape == want
+    _FORKED_BATCH = None

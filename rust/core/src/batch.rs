@@ -1,4 +1,5 @@
-//! The native batch: E worlds stepped together on a rayon pool — the one engine behind the
+//! The native batch: E worlds stepped together on the caller's thread and a crew of its own
+//! ([`crate::crew`]) — the one engine behind the
 //! PettingZoo, Gymnasium and SB3 adapters.
 //!
 //! - World i is seeded `seed + i`; its k-th episode uses the random streams of episode k of that
@@ -12,10 +13,11 @@
 //! - Every step returns fresh output vectors (the binding hands them to numpy without copying).
 
 use std::mem::MaybeUninit;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use crate::config::{ActionMode, Params};
+use crate::crew::Crew;
 use crate::error::{Error, Result};
 use crate::math::{unit, wrap, Vec2};
 use crate::observe::{target_dim, wolf_dim, Observer};
@@ -101,7 +103,9 @@ pub fn outcome_code(o: Outcome) -> u8 {
 /// ([`BatchEnv::steps_inline`]).
 pub const INLINE_BELOW: usize = 8;
 
-/// Most worlds in one task of a shared step ([`BatchEnv::chunk`]).
+/// Most worlds in one claim of a shared step ([`BatchEnv::chunk`]): at large batches a claim
+/// (an atomic update, ≈ 20 ns unless another thread is stealing from the same run) every 16
+/// worlds is free, and a thread that runs out steals at most ≈ 50 µs of work at a time.
 const MAX_CHUNK: usize = 16;
 
 /// Most worlds one batch may hold.
@@ -175,18 +179,15 @@ pub struct BatchEnv {
     learners: Learners,
     autoreset: bool,
     slots: Vec<Slot>,
-    /// The workers besides the calling thread (`threads − 1` of them; `None`: rayon's global
-    /// pool, or one thread, which steps on the caller's thread alone).
-    pool: Option<rayon::ThreadPool>,
-    threads: Option<usize>,
+    /// The threads besides the calling thread (`threads − 1` of them, all cores' worth when
+    /// `threads` is None); `None` with one thread, which steps on the caller's thread alone.
+    crew: Option<Crew>,
     track_laws: bool,
-    /// Bumped when a step starts: the pool's workers wait for the next step by spinning on
-    /// it for a short while ([`linger`]) instead of going to sleep.
-    epoch: Arc<AtomicUsize>,
 }
 
 impl BatchEnv {
-    /// `num_envs` worlds seeded `seed + i`. `threads`: None = rayon's global pool (all cores).
+    /// `num_envs` worlds seeded `seed + i`. `threads`: None = as many as rayon's global pool
+    /// has (all cores, or `RAYON_NUM_THREADS`).
     pub fn new(params: Params, num_envs: usize, learners: Learners, seed: u64, autoreset: bool, threads: Option<usize>) -> Result<Self> {
         Self::new_until(params, num_envs, learners, seed, autoreset, threads, &AtomicBool::new(false))
     }
@@ -209,22 +210,24 @@ impl BatchEnv {
                 params.world.wolves + params.world.targets
             )));
         }
-        // The calling thread steps worlds too ([`share`]): t threads are the caller and t − 1
-        // workers.
-        let pool = match threads {
-            Some(1) | None => None,
-            Some(t) => Some(rayon::ThreadPoolBuilder::new().num_threads(t - 1).build().map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
+        // The calling thread steps worlds too ([`share`]): t threads are the caller and a
+        // crew of t − 1.
+        let t = threads.unwrap_or_else(rayon::current_num_threads).max(1);
+        let crew = match t {
+            1 => None,
+            t => Some(Crew::new(t - 1).map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), pool, threads, track_laws: false, epoch: Arc::new(AtomicUsize::new(0)) };
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false };
+        let participants = env.participants();
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
-        let worlds: Vec<Result<Slot>> = share(env.pool.as_ref(), env.participants(), (0..num_envs).collect(), MAX_CHUNK, g);
+        let worlds: Vec<Result<Slot>> = share(env.crew.as_mut(), participants, (0..num_envs).collect(), MAX_CHUNK, g);
         env.slots = worlds.into_iter().collect::<Result<_>>()?;
         Ok(env)
     }
 
     /// Whether a step runs on the caller's thread: with one thread, and for batches too small
-    /// to share (waking the pool and handing work back costs ≈ 10–20 µs, a world's step with
+    /// to share (waking the crew and handing work back costs ≈ 10–20 µs, a world's step with
     /// observations ≈ 5–10 µs: below [`INLINE_BELOW`] worlds more threads only make it slower).
     fn steps_inline(&self) -> bool {
         self.participants() == 1 || self.slots.len() < INLINE_BELOW
@@ -240,17 +243,20 @@ impl BatchEnv {
         }
     }
 
-    /// Threads that step worlds: the caller and the pool's workers ([`share`]).
+    /// Threads that step worlds: the caller and its crew ([`share`]).
     fn participants(&self) -> usize {
-        self.threads.unwrap_or_else(rayon::current_num_threads).max(1)
+        1 + self.crew.as_ref().map_or(0, Crew::members)
     }
 
-    /// Worlds per task of [`share`]: at least four tasks per thread, and at most
-    /// [`MAX_CHUNK`] worlds (≈ 0.1 ms) each, so that the threads finish within a fraction of
-    /// a task of each other (with E/8 worlds per task at E = 1024 one thread idled ≈ 1 ms per
-    /// step waiting for the other's last task); taking a task from the queue costs ≈ 0.1 µs.
+    /// Worlds per claim of [`par_for`]: 32 claims per thread and at most [`MAX_CHUNK`] worlds
+    /// each, so one world at a time below 64 worlds per thread. The threads then finish within
+    /// about a world's step of each other, and a thread that runs out moves as few worlds off
+    /// the other's core as it can (a world stolen is a world whose ≈ 9 KB of state crosses
+    /// between the cores' caches, there and back the next step). Against 8 worlds per claim
+    /// at E = 64 on 2 threads: 533 → 600 k env-steps/s with the crew (`examples/batch_threads`,
+    /// medians of 7 interleaved runs).
     fn chunk(&self) -> usize {
-        (self.slots.len() / (4 * self.participants())).clamp(1, MAX_CHUNK)
+        (self.slots.len() / (32 * self.participants())).clamp(1, MAX_CHUNK)
     }
 
     pub fn params(&self) -> &Params {
@@ -323,7 +329,8 @@ impl BatchEnv {
             };
             env_slot(&params, sd, ep, None)
         };
-        let fresh: Vec<Result<Slot>> = share(self.pool.as_ref(), self.participants(), self.slots.iter().enumerate().collect(), MAX_CHUNK, g);
+        let participants = self.participants();
+        let fresh: Vec<Result<Slot>> = share(self.crew.as_mut(), participants, self.slots.iter().enumerate().collect(), MAX_CHUNK, g);
         self.slots = fresh.into_iter().collect::<Result<_>>()?;
         for s in &mut self.slots {
             s.world.track_laws = track;
@@ -364,7 +371,7 @@ impl BatchEnv {
         let (participants, chunk) = self.schedule();
         let outs = OutPieces::new(&mut out, lens, e, n, m);
         let slots = Disjoint::new(&mut self.slots);
-        par_for(self.pool.as_ref(), participants, e, chunk, |_| {}, |i| {
+        par_for(self.crew.as_mut(), participants, e, chunk, |_| {}, |i| {
             // SAFETY: par_for hands out each world index once.
             let (s, mut o) = unsafe { (slots.item(i), outs.world(i)) };
             write_obs(s, o.obs_w, o.obs_t);
@@ -468,15 +475,7 @@ impl BatchEnv {
         // SAFETY (the hint): par_for hints only the next index of the chunk the calling
         // thread is stepping, which no other thread touches.
         let ahead = |i: usize| unsafe { slots.item(i) }.prefetch();
-        // Ends the workers' wait for this step (see `linger`) before handing them work.
-        let epoch = self.epoch.fetch_add(1, Ordering::AcqRel) + 1;
-        par_for(self.pool.as_ref(), participants, e, chunk, ahead, f);
-        if let (true, Some(pool)) = (participants > 1, &self.pool) {
-            for _ in 1..participants {
-                let e = self.epoch.clone();
-                pool.spawn(move || linger(&e, epoch));
-            }
-        }
+        par_for(self.crew.as_mut(), participants, e, chunk, ahead, f);
         if let Some((_, err)) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
             return Err(err);
         }
@@ -558,7 +557,8 @@ impl BatchEnv {
             }
             (aw, at)
         };
-        let per: Vec<(Vec<f32>, Vec<f32>)> = share(self.pool.as_ref(), self.participants(), self.slots.iter().collect(), self.chunk(), f);
+        let (participants, chunk) = (self.participants(), self.chunk());
+        let per: Vec<(Vec<f32>, Vec<f32>)> = share(self.crew.as_mut(), participants, self.slots.iter().collect(), chunk, f);
         let mut aw = Vec::with_capacity(self.slots.len() * n * 2);
         let mut at = Vec::with_capacity(self.slots.len() * m * 2);
         for (w, t) in per {
@@ -571,12 +571,12 @@ impl BatchEnv {
 
 /// Maps `f` over `items` on `participants` threads (see [`par_for`]); the results come back
 /// in item order, so nothing depends on which thread ran what.
-fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+fn share<T: Send, R: Send>(crew: Option<&mut Crew>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
     let n = items.len();
     let mut items: Vec<Option<T>> = items.into_iter().map(Some).collect();
     let mut results: Vec<Option<R>> = std::iter::repeat_with(|| None).take(n).collect();
     let (cells, out) = (Disjoint::new(&mut items), Disjoint::new(&mut results));
-    par_for(pool, participants, n, chunk, |_| {}, |i| {
+    par_for(crew, participants, n, chunk, |_| {}, |i| {
         // SAFETY: par_for hands out each index once.
         let (item, result) = unsafe { (cells.item(i), out.item(i)) };
         *result = item.take().map(&f);
@@ -585,17 +585,19 @@ fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize
 }
 
 /// Calls `f(i)` once for every `i` in `0..n`, on `participants` threads: the calling thread
-/// and `participants − 1` jobs on `pool` (rayon's global pool when `None`). Indices go out in
-/// chunks of `chunk`; within a chunk each next index is hinted to `ahead` before `f` takes the
-/// current one (the step uses it to start loading the next world's memory, [`Slot::prefetch`]).
+/// and the members of `crew` ([`Crew::run`]; the caller alone without one, or with one
+/// participant). Indices are claimed in chunks of `chunk`. Before `f` takes an index, the
+/// index the same thread will take next is hinted to `ahead` (the step uses it to start
+/// loading the next world's memory, [`Slot::prefetch`]); a thread claims its next chunk before
+/// the last index of the current one, so what it hints is always its own.
 ///
 /// Each participant has a home share of the chunks — a contiguous run, the same run every
 /// call — and takes its own chunks first, front to back; one that runs out takes the last
-/// chunk of the participant with the most left ([`HomeQueues`]). So a world is stepped by the
-/// same thread step after step and its memory stays in that core's cache, while a slow world
-/// (one that spawns its next episode) is still balanced out. (With one shared queue the worlds
-/// moved between the cores every step: two threads stepped 64 worlds 1.4× as fast as one,
-/// against 2.0× for two separate batches of 32.)
+/// chunk of the participant with the most left ([`HomeRuns`], lock-free). So a world is stepped
+/// by the same thread step after step and its memory stays in that core's cache, while a slow
+/// world (one that spawns its next episode) is still balanced out. (With one shared queue the
+/// worlds moved between the cores every step: two threads stepped 64 worlds 1.4× as fast as
+/// one, against 2.0× for two separate batches of 32.)
 ///
 /// Only indices are handed out: each task finds its world and its pieces of the outputs from
 /// the index ([`Disjoint`], [`OutPieces`]). Building a list of per-world items and output
@@ -603,34 +605,40 @@ fn share<T: Send, R: Send>(pool: Option<&rayon::ThreadPool>, participants: usize
 ///
 /// Why not `pool.install(par_iter)`: the caller (Python's thread) then only waits, and every
 /// step pays for waking all workers and for waking the caller again (≈ 40–80 µs on this VM,
-/// as much as 16 worlds' work); here the caller starts at once and only the extra threads are
-/// woken.
-fn par_for(pool: Option<&rayon::ThreadPool>, participants: usize, n: usize, chunk: usize, ahead: impl Fn(usize) + Sync, f: impl Fn(usize) + Sync) {
-    let run = |range: std::ops::Range<usize>| {
-        for i in range.clone() {
-            if i + 1 < range.end {
-                ahead(i + 1);
+/// as much as 16 worlds' work); here the caller starts at once, and the crew's members are
+/// usually still awake from the last step (see [`crate::crew`] for why not a rayon scope).
+fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, chunk: usize, ahead: impl Fn(usize) + Sync, f: impl Fn(usize) + Sync) {
+    let crew = match crew {
+        Some(c) if participants > 1 && n > 0 => c,
+        // One thread: the caller's, with no crew to hand anything to.
+        _ => {
+            for i in 0..n {
+                if i + 1 < n {
+                    ahead(i + 1);
+                }
+                f(i);
             }
-            f(i);
+            return;
         }
     };
-    if participants <= 1 || n == 0 {
-        // One thread: the caller's, with no pool to hand anything to.
-        run(0..n);
-        return;
-    }
-    let queue = Mutex::new(HomeQueues::new(n, chunk, participants));
-    let drain = |home: usize| loop {
-        let next = queue.lock().unwrap_or_else(|p| p.into_inner()).take(home);
-        let Some(range) = next else { break };
-        run(range);
-    };
-    let extra = participants - 1;
-    let (drain, finished) = (&drain, &AtomicUsize::new(0));
-    match pool {
-        Some(p) => p.in_place_scope(|s| spawn_and_drain(s, extra, drain, finished)),
-        None => rayon::in_place_scope(|s| spawn_and_drain(s, extra, drain, finished)),
-    }
+    let runs = HomeRuns::new(n, chunk, participants);
+    // Participant `home` (the caller 0, crew member w its w) drains its home run, then helps.
+    // It claims its next chunk before it runs the last index of the current one, so that the
+    // index it hints is always one it holds (a world another thread steps is never touched).
+    crew.run(&|home: usize| {
+        let mut current = runs.take(home);
+        while let Some(range) = current {
+            let next = runs.take(home);
+            for i in range.clone() {
+                let hint = if i + 1 < range.end { Some(i + 1) } else { next.as_ref().map(|r| r.start) };
+                if let Some(h) = hint {
+                    ahead(h);
+                }
+                f(i);
+            }
+            current = next;
+        }
+    });
 }
 
 /// Shared access, from many threads, to distinct elements of a slice borrowed for `'a`: the
@@ -764,99 +772,63 @@ impl<'a> OutPieces<'a> {
 }
 
 /// The chunks of [`par_for`]: chunk k is indices `k·chunk .. min((k+1)·chunk, n)`, and
-/// participant p's home is the run `homes[p].0..homes[p].1` of the chunks it has not taken.
-struct HomeQueues {
+/// participant p's home is the run `front..back` of the chunks it has not taken (one atomic
+/// word per home, on a cache line of its own: taking one's own next chunk touches no line
+/// another thread writes, unless that thread is stealing from it).
+struct HomeRuns {
     n: usize,
     chunk: usize,
-    homes: Vec<(usize, usize)>,
+    homes: Vec<HomeRun>,
 }
 
-impl HomeQueues {
+/// `front << 32 | back`, in chunks.
+#[repr(align(64))]
+struct HomeRun(std::sync::atomic::AtomicU64);
+
+fn pack(front: usize, back: usize) -> u64 {
+    ((front as u64) << 32) | back as u64
+}
+
+fn unpack(v: u64) -> (usize, usize) {
+    ((v >> 32) as usize, (v & 0xffff_ffff) as usize)
+}
+
+impl HomeRuns {
     /// `0..n` in chunks of `chunk` (at least 1), dealt in order to `participants` homes of as
     /// equal a count of chunks as can be.
     fn new(n: usize, chunk: usize, participants: usize) -> Self {
         let chunk = chunk.max(1);
         let c = n.div_ceil(chunk);
-        let homes = (0..participants).map(|p| (p * c / participants, (p + 1) * c / participants)).collect();
+        assert!(c < 1 << 32, "{c} chunks");
+        let homes = (0..participants).map(|p| HomeRun(std::sync::atomic::AtomicU64::new(pack(p * c / participants, (p + 1) * c / participants)))).collect();
         Self { n, chunk, homes }
     }
 
     /// The next chunk for participant `home` (taken modulo the participants): the front of its
     /// own run, else the back of the longest run left; `None` when every chunk is taken.
-    fn take(&mut self, home: usize) -> Option<std::ops::Range<usize>> {
-        let home = home % self.homes.len();
-        let (front, back) = self.homes[home];
-        let k = if front < back {
-            self.homes[home].0 += 1;
-            front
-        } else {
-            let (victim, &(f, b)) = self.homes.iter().enumerate().max_by_key(|&(p, &(f, b))| (b - f, std::cmp::Reverse(p)))?;
-            if f == b {
+    fn take(&self, home: usize) -> Option<std::ops::Range<usize>> {
+        let own = &self.homes[home % self.homes.len()].0;
+        let mut v = own.load(Ordering::Acquire);
+        let k = loop {
+            let (front, back) = unpack(v);
+            if front < back {
+                match own.compare_exchange_weak(v, pack(front + 1, back), Ordering::AcqRel, Ordering::Acquire) {
+                    Ok(_) => break front,
+                    Err(now) => v = now,
+                }
+                continue;
+            }
+            // Own run done: the back of the longest run left (the lowest-numbered of equals).
+            let (victim, (f, b)) = self.homes.iter().map(|h| unpack(h.0.load(Ordering::Acquire))).enumerate().max_by_key(|&(p, (f, b))| (b.saturating_sub(f), std::cmp::Reverse(p)))?;
+            if f >= b {
                 return None;
             }
-            self.homes[victim].1 -= 1;
-            b - 1
+            if self.homes[victim].0.compare_exchange(pack(f, b), pack(f, b - 1), Ordering::AcqRel, Ordering::Acquire).is_ok() {
+                break b - 1;
+            }
+            v = own.load(Ordering::Acquire);
         };
         Some(k * self.chunk..((k + 1) * self.chunk).min(self.n))
-    }
-}
-
-/// [`par_for`]'s scope: `extra` jobs and the calling thread drain the same chunks. The caller then
-/// spins until every job has finished instead of going to sleep in the scope's wait: being
-/// woken again by the last worker costs tens of µs on a VM, as much as a few worlds' step.
-///
-/// The caller's home is 0; a job's is 1 + the index of the pool thread that runs it (the same
-/// thread's each step; the job's own number where it is not run on a pool thread).
-fn spawn_and_drain<'s, F: Fn(usize) + Sync + 's>(s: &rayon::Scope<'s>, extra: usize, drain: &'s F, finished: &'s AtomicUsize) {
-    for job in 0..extra {
-        s.spawn(move |_| {
-            // Counted when the job ends, however it ends: a job that panicked must not leave
-            // the caller spinning (the scope then hands the panic on to the caller).
-            let _counted = CountOnDrop(finished);
-            drain(1 + rayon::current_thread_index().map_or(job, |t| t % extra));
-        });
-    }
-    drain(0);
-    // Only a thread outside every rayon pool may spin: a pool's own thread (a caller stepping
-    // batches inside a parallel iterator) must let the scope's wait run the jobs still queued
-    // on it, or it would wait for itself.
-    if rayon::current_thread_index().is_some() {
-        return;
-    }
-    let mut spins = 0u32;
-    while finished.load(Ordering::Acquire) < extra {
-        spins += 1;
-        if spins < 1 << 14 {
-            std::hint::spin_loop();
-        } else {
-            std::thread::yield_now();
-        }
-    }
-}
-
-/// How long a worker keeps waiting, awake, for the next step after finishing its part of
-/// one. A sleeping worker takes tens of µs to wake on a VM (a futex wake and the hypervisor
-/// scheduling the vCPU), as much as a quarter of a 64-world step; between two steps of a
-/// training loop the caller is away for far less than this.
-const LINGER: std::time::Duration = std::time::Duration::from_micros(300);
-
-/// A pool worker's wait for the next step: spins while `epoch` still reads `since` (no step
-/// has started since) and for at most [`LINGER`]; then the worker is free to sleep.
-fn linger(epoch: &AtomicUsize, since: usize) {
-    let start = std::time::Instant::now();
-    while epoch.load(Ordering::Acquire) == since && start.elapsed() < LINGER {
-        for _ in 0..64 {
-            std::hint::spin_loop();
-        }
-    }
-}
-
-/// Adds one to the counter when dropped, on return and on unwinding alike.
-struct CountOnDrop<'a>(&'a AtomicUsize);
-
-impl Drop for CountOnDrop<'_> {
-    fn drop(&mut self) {
-        self.0.fetch_add(1, Ordering::Release);
     }
 }
 
@@ -1050,37 +1022,11 @@ mod tests {
     }
 
     #[test]
-    fn a_lingering_worker_stops_waiting_when_a_step_starts_or_after_the_linger() {
-        use std::time::Instant;
-        // A step started since: no wait at all.
-        let epoch = Arc::new(AtomicUsize::new(5));
-        let t = Instant::now();
-        linger(&epoch, 4);
-        assert!(t.elapsed() < LINGER);
-        // Nothing starts: the wait ends by itself (it never holds a worker for long).
-        let t = Instant::now();
-        linger(&epoch, 5);
-        assert!(t.elapsed() >= LINGER && t.elapsed() < Duration::from_secs(5));
-        // A step starting while it waits ends it.
-        let e = epoch.clone();
-        let waiter = std::thread::spawn(move || {
-            let t = Instant::now();
-            while t.elapsed() < Duration::from_secs(60) && e.load(Ordering::Acquire) == 5 {
-                linger(&e, 5);
-            }
-            e.load(Ordering::Acquire)
-        });
-        std::thread::sleep(Duration::from_millis(20));
-        epoch.fetch_add(1, Ordering::AcqRel);
-        assert_eq!(waiter.join().unwrap(), 6);
-    }
-
-    #[test]
     fn share_maps_in_item_order_whatever_the_threads_and_chunks() {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let mut crew = Crew::new(2).unwrap();
         let want: Vec<usize> = (0..1000).map(|k| 3 * k).collect();
         for (participants, chunk) in [(1, 1), (2, 7), (3, 16), (3, 1000)] {
-            assert_eq!(share(Some(&pool), participants, (0..1000).collect(), chunk, |k: usize| 3 * k), want, "{participants} threads, chunk {chunk}");
+            assert_eq!(share(Some(&mut crew), participants, (0..1000).collect(), chunk, |k: usize| 3 * k), want, "{participants} threads, chunk {chunk}");
         }
         assert_eq!(share(None, 2, (0..10).collect(), 3, |k: usize| k), (0..10).collect::<Vec<_>>());
     }
@@ -1089,7 +1035,7 @@ mod tests {
     fn each_participant_takes_its_home_chunks_first_then_the_back_of_the_longest_run() {
         // 10 indices in chunks of 2: chunks 0..5 start at 0, 2, 4, 6, 8; homes of 2
         // participants are chunks 0..2 and 2..5.
-        let mut q = HomeQueues::new(10, 2, 2);
+        let q = HomeRuns::new(10, 2, 2);
         assert_eq!(q.take(1), Some(4..6));
         assert_eq!(q.take(0), Some(0..2));
         assert_eq!(q.take(0), Some(2..4));
@@ -1101,7 +1047,7 @@ mod tests {
         // Homes beyond the participants wrap; a last short chunk; more participants than
         // chunks: every index is still handed out exactly once.
         for (participants, chunk, n) in [(3, 1, 2), (4, 3, 10), (2, 1, 0), (5, 7, 100)] {
-            let mut q = HomeQueues::new(n, chunk, participants);
+            let q = HomeRuns::new(n, chunk, participants);
             let mut seen = Vec::new();
             for round in 0.. {
                 match q.take(round * 7) {
@@ -1118,21 +1064,42 @@ mod tests {
     }
 
     #[test]
-    fn par_for_hints_each_next_index_of_a_chunk_once_before_the_current_one_runs() {
+    fn par_for_hints_each_index_once_just_before_the_one_it_runs_before_it() {
         let log = Mutex::new(Vec::new());
         let push = |s: String| log.lock().unwrap().push(s);
         par_for(None, 1, 5, 5, |next| push(format!("ahead {next}")), |i| push(format!("run {i}")));
         let want = ["ahead 1", "run 0", "ahead 2", "run 1", "ahead 3", "run 2", "ahead 4", "run 3", "run 4"];
         assert_eq!(*log.lock().unwrap(), want);
-        // Threads: every index runs once, and a hint never crosses into another chunk (that
-        // world may be another thread's).
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let runs: Vec<AtomicUsize> = (0..100).map(|_| AtomicUsize::new(0)).collect();
-        par_for(Some(&pool), 3, 100, 7, |next| assert_ne!(next % 7, 0, "hinted {next}, the start of a chunk"), |i| {
-            runs[i].fetch_add(1, Ordering::Relaxed);
-        });
-        assert!(runs.iter().all(|r| r.load(Ordering::Relaxed) == 1));
-        par_for(Some(&pool), 2, 0, 4, |_| panic!("nothing to hint"), |_| panic!("nothing to run"));
+        // Threads: every index runs once, and the index a thread hints is the next one that
+        // same thread runs (a world that another thread may be stepping is never touched).
+        let mut crew = Crew::new(2).unwrap();
+        for (n, chunk) in [(100, 7), (64, 1), (5, 16), (1000, 3)] {
+            let events = Mutex::new(Vec::new());
+            let me = || format!("{:?}", std::thread::current().id());
+            par_for(Some(&mut crew), 3, n, chunk, |next| events.lock().unwrap().push((me(), true, next)), |i| {
+                // Long enough for the threads to interleave and to steal from each other.
+                std::thread::sleep(Duration::from_micros(if i % 5 == 0 { 200 } else { 20 }));
+                events.lock().unwrap().push((me(), false, i));
+            });
+            let events = events.into_inner().unwrap();
+            let mut ran: Vec<usize> = events.iter().filter(|e| !e.1).map(|e| e.2).collect();
+            ran.sort_unstable();
+            assert_eq!(ran, (0..n).collect::<Vec<_>>(), "n {n}, chunk {chunk}: each index once");
+            let mut threads: Vec<String> = events.iter().map(|e| e.0.clone()).collect();
+            threads.sort();
+            threads.dedup();
+            for t in threads {
+                let mine: Vec<(bool, usize)> = events.iter().filter(|e| e.0 == t).map(|e| (e.1, e.2)).collect();
+                for (k, &(hint, h)) in mine.iter().enumerate() {
+                    if hint {
+                        // ahead h, run i, then the thread's next run is h.
+                        let next_run = mine[k + 1..].iter().filter(|e| !e.0).nth(1).map(|e| e.1);
+                        assert_eq!(next_run, Some(h), "n {n}, chunk {chunk}: thread {t} hinted {h}: {mine:?}");
+                    }
+                }
+            }
+        }
+        par_for(Some(&mut crew), 3, 0, 4, |_| panic!("nothing to hint"), |_| panic!("nothing to run"));
     }
 
     /// A task that panics on a worker reaches the caller as a panic (the binding turns it
@@ -1141,15 +1108,15 @@ mod tests {
     fn a_panic_on_a_worker_is_handed_on_not_waited_for() {
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            let mut crew = Crew::new(1).unwrap();
             let work = |k: usize| {
                 std::thread::sleep(Duration::from_millis(1)); // long enough for the worker to take tasks
-                if rayon::current_thread_index().is_some() {
+                if std::thread::current().name().is_some_and(|n| n.starts_with("wolfpack-crew")) {
                     panic!("task {k} on the worker");
                 }
                 k
             };
-            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| share(Some(&pool), 2, (0..64).collect(), 1, work)));
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| share(Some(&mut crew), 2, (0..64).collect(), 1, work)));
             tx.send(r.is_err()).unwrap();
         });
         let panicked = rx.recv_timeout(Duration::from_secs(60)).expect("share still waiting 60 s after a worker's task panicked");

@@ -5,6 +5,7 @@
 
 pub mod batch;
 pub mod config;
+pub mod crew;
 pub mod episode;
 pub mod error;
 pub mod geometry;
