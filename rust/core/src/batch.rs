@@ -125,6 +125,25 @@ struct Slot {
 }
 
 impl Slot {
+    /// Starts episode `episode` of this slot's world in place: the state `env_slot` would make
+    /// (the observer's scratch aside, which holds nothing from one use to the next), in this
+    /// slot's own allocations ([`World::adopt`]).
+    fn respawn(&mut self, params: &Arc<Params>, episode: u64, track: bool) -> Result<()> {
+        let mut fresh = World::new_episode_prevalidated(params.clone(), self.seed, episode)?;
+        // As env_slot: every reader of a batch world's polygons places what it reads.
+        fresh.lazy_obstacles = true;
+        fresh.track_laws = track;
+        self.world.adopt(fresh);
+        self.episode = episode;
+        self.rewards.reset(&self.world);
+        let (n, m) = (self.world.n_wolves(), self.world.n_targets());
+        self.wolf_cmds.clear();
+        self.wolf_cmds.resize(n, Command::default());
+        self.target_cmds.clear();
+        self.target_cmds.resize(m, Command::default());
+        Ok(())
+    }
+
     /// [`World::prefetch`] and the slot's own lists.
     #[inline]
     fn prefetch(&self) {
@@ -871,9 +890,7 @@ fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Lea
     write_infos(&s.world, &mut o);
     if autoreset && outcome != Outcome::Running {
         write_obs(s, o.fin_w, o.fin_t);
-        let mut next = env_slot(params, s.seed, s.episode + 1, None)?;
-        next.world.track_laws = track;
-        *s = next;
+        s.respawn(params, s.episode + 1, track)?;
     }
     write_obs(s, o.obs_w, o.obs_t);
     Ok(())

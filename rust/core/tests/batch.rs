@@ -264,3 +264,29 @@ fn set_drivers_keeps_the_worlds_mid_episode() {
     assert!(e.contains("policies") && e.contains("action_mode"), "{e}");
     assert_eq!(again.params(), &p, "a refused change changes nothing");
 }
+
+/// Every autoreset episode of a batch world is episode k of its seed, as a world built afresh
+/// plays it: the batch respawns its worlds in place (in their own allocations), and nothing of
+/// the old episode may leak into the new one.
+#[test]
+fn autoreset_episodes_are_the_episodes_of_fresh_worlds() {
+    use wolfpack_core::World;
+    let p = Params::default();
+    for seed in [3u64, 40] {
+        let mut env = BatchEnv::new(p.clone(), 1, Learners::None, seed, true, Some(1)).unwrap();
+        let mut episodes = Vec::new();
+        while episodes.len() < 4 {
+            let o = env.step(&[], &[]).unwrap();
+            if o.terminated[0] || o.truncated[0] {
+                episodes.push((o.outcome[0], o.steps[0], o.energy.clone()));
+            }
+        }
+        for (k, (outcome, steps, energy)) in episodes.into_iter().enumerate() {
+            let mut w = World::new_episode(std::sync::Arc::new(p.clone()), seed, k as u64).unwrap();
+            while w.step() == Outcome::Running {}
+            let want_energy: Vec<f64> = w.wolves.iter().chain(&w.targets).map(|a| a.energy).collect();
+            assert_eq!((outcome, steps), (wolfpack_core::batch::outcome_code(w.outcome), w.t), "seed {seed}, episode {k}");
+            assert_eq!(energy.iter().map(|e| e.to_bits()).collect::<Vec<_>>(), want_energy.iter().map(|e| e.to_bits()).collect::<Vec<_>>(), "seed {seed}, episode {k}");
+        }
+    }
+}

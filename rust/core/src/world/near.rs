@@ -39,6 +39,13 @@ pub fn cull_distance(p: &Params) -> f64 {
 }
 
 impl Neighbours {
+    /// Becomes `fresh` in this one's lists ([`crate::world::World::adopt`]).
+    pub(crate) fn adopt(&mut self, fresh: Neighbours) {
+        self.start.clone_from(&fresh.start);
+        self.index.clone_from(&fresh.index);
+        self.reach2.clone_from(&fresh.reach2);
+    }
+
     /// Rebuilds the lists for agents at `points` with cull distance `cut` ([`cull_distance`]).
     pub fn build(&mut self, points: impl Iterator<Item = Vec2>, obstacles: &[Obstacle], cut: f64) {
         self.start.clear();

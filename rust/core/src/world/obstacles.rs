@@ -73,6 +73,15 @@ impl Obstacle {
         Self::polygon(center, vertices, moving)
     }
 
+    /// Becomes `fresh`, keeping this obstacle's vertex lists where they are large enough
+    /// ([`crate::world::World::adopt`]).
+    pub(crate) fn adopt(&mut self, fresh: Obstacle) {
+        let Obstacle { kind, center, radius, angle, local, vertices, placed } = fresh;
+        (self.kind, self.center, self.radius, self.angle, self.placed) = (kind, center, radius, angle, placed);
+        self.local.clone_from(&local);
+        self.vertices.clone_from(&vertices);
+    }
+
     pub fn is_polygon(&self) -> bool {
         !self.local.is_empty()
     }
