@@ -491,8 +491,8 @@ impl BatchEnv {
                 }
             }
         };
-        // SAFETY (the hint): par_for hints only the next index of the chunk the calling
-        // thread is stepping, which no other thread touches.
+        // SAFETY (the hint): par_for hints only an index the calling thread has claimed and
+        // steps next, which no other thread touches.
         let ahead = |i: usize| unsafe { slots.item(i) }.prefetch();
         par_for(self.crew.as_mut(), participants, e, chunk, ahead, f);
         if let Some((_, err)) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {

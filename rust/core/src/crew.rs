@@ -110,12 +110,15 @@ impl Crew {
     /// after all have returned.
     pub fn run(&mut self, job: &(dyn Fn(usize) + Sync)) {
         if std::process::id() != self.pid {
-            // A forked child: the members stayed with the parent.
+            // A forked child: the members stayed with the parent (their handles name threads
+            // this process never had: nothing to join or detach).
             let n = self.members.len();
-            self.members.clear();
+            std::mem::forget(std::mem::take(&mut self.members));
             self.shared = Shared::new();
             self.pid = std::process::id();
-            self.start(n).expect("cannot restart the batch's threads after a fork");
+            // Members that cannot be started only mean fewer threads: the others (the caller
+            // at least) take the work their homes would have had.
+            let _ = self.start(n);
         }
         let s = &*self.shared;
         // SAFETY (the lifetime's erasure): the members read the pointer only between the epoch
