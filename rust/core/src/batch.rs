@@ -108,6 +108,15 @@ pub const INLINE_BELOW: usize = 8;
 /// worlds is free, and a thread that runs out steals at most ≈ 50 µs of work at a time.
 const MAX_CHUNK: usize = 16;
 
+/// Worlds per thread from which a step asks the CPU to load each next world's memory while it
+/// steps the current one ([`Slot::prefetch`]). Below, a thread's worlds are still in the
+/// caches the last step left them in, and the hints only cost: without them, E = 1,024 ran
+/// 2–5 % faster on one thread and 4–9 % on two, E = 64 4 %; above, the worlds come from memory
+/// and the hints pay: E = 4,096 on one thread +17 %, E = 8,192 +8 % on one thread and +2–3 % on
+/// two; at 2,048 per thread it was even (steady-state runs after 1.5 M env-steps of warm-up,
+/// interleaved, BENCHMARKS "Issue 17, fifth session").
+const PREFETCH_FROM: usize = 2048;
+
 /// Most worlds one batch may hold.
 pub const MAX_ENVS: usize = 1 << 17;
 
@@ -493,7 +502,12 @@ impl BatchEnv {
         };
         // SAFETY (the hint): par_for hints only an index the calling thread has claimed and
         // steps next, which no other thread touches.
-        let ahead = |i: usize| unsafe { slots.item(i) }.prefetch();
+        let prefetch = e / participants >= PREFETCH_FROM;
+        let ahead = |i: usize| {
+            if prefetch {
+                unsafe { slots.item(i) }.prefetch()
+            }
+        };
         par_for(self.crew.as_mut(), participants, e, chunk, ahead, f);
         if let Some((_, err)) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
             return Err(err);
