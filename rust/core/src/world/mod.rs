@@ -336,10 +336,9 @@ impl World {
 
     /// Asks the CPU to start loading the memory this world's next step reads (the agents, the
     /// obstacles and their vertex lists, the scratch lists), without waiting for it: the batch
-    /// calls it for the next world while it steps this one. Beyond a few hundred worlds the
-    /// batch no longer fits the core's own cache, and a world's step otherwise waits on ≈ 200
-    /// scattered loads from the shared cache (its data is spread over ≈ 40 small
-    /// allocations the hardware cannot predict). Changes no result.
+    /// calls it for the next world while it steps this one, from a few thousand worlds per
+    /// thread on (`batch::PREFETCH_FROM`), where a world's ≈ 50 small lists, which the hardware
+    /// cannot predict, come from memory rather than from the caches. Changes no result.
     #[inline]
     pub fn prefetch(&self) {
         use crate::math::prefetch_slice as pf;
