@@ -236,10 +236,10 @@ impl World {
     /// Becomes `fresh` (a world just spawned), keeping this world's own allocations wherever
     /// they are large enough: the same state as `*self = fresh`, field for field (a test
     /// checks), but the lists stay where they were. A batch respawns its worlds this way:
-    /// with `*self = fresh`, each autoreset left the world's ≈ 50 lists at addresses the
-    /// allocator handed out anywhere, and at E = 8,192 a few hundred steps later a world's state
-    /// was spread over ≈ 40 pages instead of 3 — on one thread 200 k env-steps/s against the
-    /// 250 k of the freshly built, still-contiguous batch.
+    /// with `*self = fresh`, each autoreset left the world's ≈ 50 lists at whatever addresses
+    /// the allocator had free, scattered over the heap, and a batch of 8,192 that had run a
+    /// few hundred steps stepped ≈ 200 k env-steps/s on one thread against ≈ 245 k when freshly
+    /// built (≈ 225 k with `adopt`; BENCHMARKS, "Issue 17, fifth session").
     pub(crate) fn adopt(&mut self, fresh: World) {
         // Destructured, so that a field added to World does not compile until it is handled.
         let World {
