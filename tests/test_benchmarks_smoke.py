@@ -95,3 +95,14 @@ def test_stacks_benchmark_runs_every_stack():
     for r in rows:
         assert "skipped" not in r, r
         assert r["env_steps"] > 0 and r["env_steps_per_second"] > 0, r
+
+
+def test_alternating_benchmark_runs_and_reports_both_rates():
+    script = SCRIPT.parent / "alternating.py"
+    cmd = [sys.executable, str(script), "--sizes", "8", "--repeats", "1", "--env-steps", "800"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    line = done.stdout.strip().splitlines()[-1]
+    assert line.startswith("E=8 threads=2 round 1: one batch ") and "two in turn" in line, line
+    rates = [float(w) for w in line.replace(",", " ").split() if w.replace(".", "").isdigit()]
+    assert len(rates) >= 2 and all(r > 0 for r in rates[-2:]), line
