@@ -9,8 +9,8 @@
 //! waking it is a futex call and a vCPU to schedule), and the batch had to spawn a job per
 //! step just to keep its workers awake between steps. A crew member instead spins on an
 //! epoch counter for [`LINGER`] after each job and takes the next job the moment the counter
-//! moves; only a member left idle longer parks (on a condition variable) and is woken by the
-//! next job.
+//! moves; only a member left idle longer, or one that sees another crew of the process start
+//! a job ([`JOBS_STARTED`]), parks (on a condition variable) and is woken by the next job.
 //!
 //! Rayon stays what runs the scripted episodes (`episode::run_episodes`), whose tasks are
 //! whole episodes (milliseconds each), where none of this shows.
