@@ -10,7 +10,7 @@
 //! step just to keep its workers awake between steps. A crew member instead spins on an
 //! epoch counter for [`LINGER`] after each job and takes the next job the moment the counter
 //! moves; only a member left idle longer, or one that sees another crew of the process start
-//! a job ([`JOBS_STARTED`]), parks (on a condition variable) and is woken by the next job.
+//! a job (`JOBS_STARTED`), parks (on a condition variable) and is woken by the next job.
 //!
 //! Rayon stays what runs the scripted episodes (`episode::run_episodes`), whose tasks are
 //! whole episodes (milliseconds each), where none of this shows.
