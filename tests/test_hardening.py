@@ -624,6 +624,23 @@ def test_ctrl_c_stops_bench_and_replay_at_once(tmp_path):
     assert not list((tmp_path / "video").iterdir())  # no partial episode.mp4, no temporary file
 
 
+def _in_forked_child(target, what: str):
+    """Runs ``target(queue)`` in a child forked from this process and returns what it put on the
+    queue; fails the test when the child hangs (``what`` names the call that hung)."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=target, args=(queue,))
+    child.start()
+    child.join(60)
+    if child.is_alive():
+        child.kill()
+        pytest.fail(f"{what} hung in a forked child")
+    assert child.exitcode == 0
+    return queue.get(timeout=5)
+
+
 def _episodes_in_child(queue) -> None:
     queue.put(len(wolfpack.run_episodes(None, 3, 0, threads=2)))
 
@@ -632,18 +649,8 @@ def _episodes_in_child(queue) -> None:
 def test_threaded_runs_work_in_a_forked_child_after_the_parent_used_its_pool():
     """The core keeps one thread pool per thread count for repeated calls; a child forked
     after the parent started one has none of its threads and must start its own, not hang."""
-    import multiprocessing as mp
-
     assert len(wolfpack.run_episodes(None, 3, 0, threads=2)) == 3
-    ctx = mp.get_context("fork")
-    queue = ctx.Queue()
-    child = ctx.Process(target=_episodes_in_child, args=(queue,))
-    child.start()
-    child.join(60)
-    if child.is_alive():
-        child.kill()
-        pytest.fail("run_episodes hung in a forked child")
-    assert child.exitcode == 0 and queue.get(timeout=5) == 3
+    assert _in_forked_child(_episodes_in_child, "run_episodes") == 3
 
 
 _FORKED_BATCH = None
@@ -661,23 +668,13 @@ def _batch_steps_in_child(queue) -> None:
 def test_a_threaded_batch_made_before_a_fork_steps_in_the_child():
     """A batch's crew of threads does not survive a fork: a child stepping a batch its parent
     made (and stepped) must start a crew of its own, not wait forever for the parent's."""
-    import multiprocessing as mp
-
     from wolfpack import BatchEnv
 
     global _FORKED_BATCH
     _FORKED_BATCH = BatchEnv(num_envs=64, learners="wolves", seed=0, threads=2)
     _FORKED_BATCH.reset(seed=0)
     want = _FORKED_BATCH.step(np.zeros((64, 5, 2), np.float32))["obs_wolves"].shape
-    ctx = mp.get_context("fork")
-    queue = ctx.Queue()
-    child = ctx.Process(target=_batch_steps_in_child, args=(queue,))
-    child.start()
-    child.join(60)
-    if child.is_alive():
-        child.kill()
-        pytest.fail("BatchEnv.step hung in a forked child")
-    assert child.exitcode == 0 and queue.get(timeout=5) == want
+    assert _in_forked_child(_batch_steps_in_child, "BatchEnv.step") == want
     # The parent's own crew still works.
     assert _FORKED_BATCH.step(np.zeros((64, 5, 2), np.float32))["obs_wolves"].shape == want
     _FORKED_BATCH = None

@@ -134,22 +134,18 @@ struct Slot {
 }
 
 impl Slot {
-    /// Starts episode `episode` of this slot's world in place: the state `env_slot` would make
-    /// (the observer's scratch aside, which holds nothing from one use to the next), in this
+    /// Starts episode `episode` of this slot's world in place: the slot `env_slot` makes for
+    /// it (the observer's scratch aside, which holds nothing from one use to the next), in this
     /// slot's own allocations ([`World::adopt`]).
     fn respawn(&mut self, params: &Arc<Params>, episode: u64, track: bool) -> Result<()> {
-        let mut fresh = World::new_episode_prevalidated(params.clone(), self.seed, episode)?;
-        // As env_slot: every reader of a batch world's polygons places what it reads.
-        fresh.lazy_obstacles = true;
-        fresh.track_laws = track;
-        self.world.adopt(fresh);
+        let Slot { world, seed: _, episode, rewards: _, observer: _, wolf_cmds, target_cmds } = env_slot(params, self.seed, episode, None)?;
+        self.world.adopt(world);
+        self.world.track_laws = track;
         self.episode = episode;
+        // RewardState::new is reset on a default state: the same lists, kept.
         self.rewards.reset(&self.world);
-        let (n, m) = (self.world.n_wolves(), self.world.n_targets());
-        self.wolf_cmds.clear();
-        self.wolf_cmds.resize(n, Command::default());
-        self.target_cmds.clear();
-        self.target_cmds.resize(m, Command::default());
+        self.wolf_cmds.clone_from(&wolf_cmds);
+        self.target_cmds.clone_from(&target_cmds);
         Ok(())
     }
 
