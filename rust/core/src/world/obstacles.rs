@@ -60,17 +60,9 @@ impl Obstacle {
     /// The random irregular polygon of SPEC §1.3: size R, n vertices whose polar angles cover
     /// every quadrant, radii `sqrt(U(inner, 1))·R`, joined in angular order (star-shaped).
     pub fn random_polygon<R: Rng>(rng: &mut R, center: Vec2, moving: bool, p: &ObstacleParams) -> Self {
-        let size = rng.random_range(p.polygon_size[0]..=p.polygon_size[1]);
-        let n = rng.random_range(p.polygon_vertices[0]..=p.polygon_vertices[1]) as usize;
-        let mut angles: Vec<f64> = (0..n)
-            .map(|k| if k < 4 { (k as f64 + rng.random::<f64>()) * FRAC_PI_2 } else { rng.random::<f64>() * TAU })
-            .collect();
-        angles.sort_by(f64::total_cmp);
-        let vertices = angles
-            .iter()
-            .map(|&a| center + unit(a) * (rng.random_range(p.polygon_inner..=1.0)).sqrt() * size)
-            .collect();
-        Self::polygon(center, vertices, moving)
+        let mut draw = PolygonDraw::default();
+        draw.redraw(rng, p);
+        draw.build(center, moving)
     }
 
     /// Becomes `fresh`, keeping this obstacle's vertex lists where they are large enough
@@ -185,6 +177,50 @@ impl Obstacle {
     }
 }
 
+/// The random draws of one [`Obstacle::random_polygon`], apart from the polygon built from
+/// them: spawning rejects most candidate polygons for lack of room, and a rejection needs only
+/// a bound on the bounding radius, not the sorted angles, the sin/cos of each and two vertex
+/// lists. Spawning drew and built every candidate (≈ 48 per world spawned); with the bound
+/// it builds only those that may fit, from the same draws in the same order. That halved
+/// spawning's instructions: −2.5 % for a scripted episode, −4 % for a batch step.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct PolygonDraw {
+    size: f64,
+    /// Polar angles in the order drawn (the first four one per quadrant).
+    angles: Vec<f64>,
+    /// `U(inner, 1)` for each vertex, in the order drawn: the k-th goes to the k-th smallest
+    /// angle.
+    radii_squared: Vec<f64>,
+}
+
+impl PolygonDraw {
+    /// Draws a new polygon's numbers from `rng`, reusing this draw's lists.
+    pub(crate) fn redraw<R: Rng>(&mut self, rng: &mut R, p: &ObstacleParams) {
+        self.size = rng.random_range(p.polygon_size[0]..=p.polygon_size[1]);
+        let n = rng.random_range(p.polygon_vertices[0]..=p.polygon_vertices[1]) as usize;
+        self.angles.clear();
+        self.angles.extend((0..n).map(|k| if k < 4 { (k as f64 + rng.random::<f64>()) * FRAC_PI_2 } else { rng.random::<f64>() * TAU }));
+        self.radii_squared.clear();
+        self.radii_squared.extend((0..n).map(|_| rng.random_range(p.polygon_inner..=1.0)));
+    }
+
+    /// A lower bound on the bounding radius [`PolygonDraw::build`] gives at `center`: the
+    /// largest vertex radius `sqrt(u)·R` less a slack far above the rounding of the unit
+    /// vector, the product and the shift by the centre and back (a few ulps of |centre| + R),
+    /// so that a candidate too close to something at this radius is too close at its own.
+    pub(crate) fn radius_lower_bound(&self, center: Vec2) -> f64 {
+        let largest = self.radii_squared.iter().copied().fold(0.0, f64::max).sqrt() * self.size;
+        largest - 1e-9 * (largest + center.x.abs() + center.y.abs())
+    }
+
+    /// The polygon at `center`: the angles sorted, each with its radius draw.
+    pub(crate) fn build(&mut self, center: Vec2, moving: bool) -> Obstacle {
+        self.angles.sort_by(f64::total_cmp);
+        let vertices = self.angles.iter().zip(&self.radii_squared).map(|(&a, &u)| center + unit(a) * u.sqrt() * self.size).collect();
+        Obstacle::polygon(center, vertices, moving)
+    }
+}
+
 /// Mirror `x` into [lo, hi] (a bounce off the wall); degenerate ranges clamp to the middle.
 fn reflect(x: f64, lo: f64, hi: f64) -> f64 {
     if lo >= hi {
@@ -227,6 +263,24 @@ mod tests {
             }
             assert!(angles.windows(2).all(|w| w[0] <= w[1]));
             assert!(o.radius <= 1.25 + 1e-12 && o.radius >= (0.07f64).sqrt() * 0.5 - 1e-12);
+        }
+    }
+
+    /// Spawning rejects a candidate polygon at `radius_lower_bound` before building it: the
+    /// bound must never exceed the radius of the polygon built (or spawning would reject
+    /// polygons that fit and change the episodes), and should be tight enough to reject.
+    #[test]
+    fn the_radius_bound_of_a_draw_is_below_and_close_to_its_polygons_radius() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut draw = PolygonDraw::default();
+        for k in 0..5000 {
+            let p = if k % 2 == 0 { ObstacleParams::default() } else { ObstacleParams { polygon_size: [0.01, 400.0], polygon_vertices: [4, 60], polygon_inner: 0.9, ..Default::default() } };
+            let c = Vec2::new(rng.random_range(-1e3..1e3), rng.random_range(-1e3..1e3));
+            draw.redraw(&mut rng, &p);
+            let bound = draw.radius_lower_bound(c);
+            let o = draw.build(c, false);
+            assert!(bound <= o.radius, "bound {bound} above the radius {}", o.radius);
+            assert!(bound >= o.radius - 1e-6 * (1.0 + c.norm()), "bound {bound} far below the radius {}", o.radius);
         }
     }
 

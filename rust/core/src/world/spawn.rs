@@ -8,6 +8,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::layout::{v2, Layout, LayoutObstacle};
+use super::obstacles::PolygonDraw;
 use super::{AgentState, Obstacle};
 use crate::config::Params;
 use crate::error::{Error, Result};
@@ -94,20 +95,28 @@ fn try_spawn(p: &Params, rng: &mut ChaCha8Rng) -> std::result::Result<Spawned, S
     }
     let kinds = [("static circle", o.static_circles, false, false), ("moving circle", o.moving_circles, false, true), ("static polygon", o.static_polygons, true, false), ("moving polygon", o.moving_polygons, true, true)];
     let mut obstacles: Vec<Obstacle> = Vec::with_capacity(o.total());
+    let mut draw = PolygonDraw::default();
     for (name, count, polygon, moving) in kinds {
         for k in 0..count {
             let mut placed = false;
             for _ in 0..attempts {
                 let c = Vec2::new(rng.random_range(sx0..=sx1), rng.random_range(sy0..=sy1));
+                // Whether a disc of radius r at c keeps its clearance. The comparisons are
+                // monotone in r (rounding included), so a candidate that fails at a lower bound
+                // of its radius fails at the radius itself.
+                let clear = |r: f64| {
+                    wolves.iter().chain(&targets).all(|a| (a.pos - c).norm() > r + d0) && obstacles.iter().all(|q| (q.center - c).norm() > r + d0 + q.radius)
+                };
                 let ob = if polygon {
-                    Obstacle::random_polygon(rng, c, moving, o)
+                    draw.redraw(rng, o);
+                    if !clear(draw.radius_lower_bound(c)) {
+                        continue;
+                    }
+                    draw.build(c, moving)
                 } else {
                     Obstacle::circle(c, rng.random_range(o.circle_radius[0]..=o.circle_radius[1]), moving)
                 };
-                let r = ob.radius;
-                let clear_of_agents = wolves.iter().chain(&targets).all(|a| (a.pos - c).norm() > r + d0);
-                let clear_of_obstacles = obstacles.iter().all(|q| (q.center - c).norm() > r + d0 + q.radius);
-                if clear_of_agents && clear_of_obstacles {
+                if clear(ob.radius) {
                     obstacles.push(ob);
                     placed = true;
                     break;
