@@ -205,6 +205,32 @@ def test_vec_env_autoreset_terminal_observation_and_truncation():
     assert venv.seed(7)[:6] == [7] * 5 + [8]
 
 
+def test_one_worlds_agent_infos_are_that_worlds_share_of_every_worlds():
+    """``world_agent_infos`` (what a VecEnv builds for a world that ended) gives, for any world
+    and any range of agents, the very dicts of ``agent_infos`` over the whole output: the same
+    keys, values and Python types — over captures, cornerings, collisions and timeouts, with
+    two targets so that the capture steps of wolves and targets differ."""
+    from wolfpack.batch import agent_infos, world_agent_infos
+
+    batch = wolfpack.BatchEnv(num_envs=12, learners="none", seed=5, **{"world.targets": 2, "capture.cornered": True, "world.max_steps": 150})
+    batch.reset()
+    n, m = batch.n_wolves, batch.n_targets
+    outcomes = set()
+    for t in range(300):
+        out = batch.step()
+        outcomes |= set(out["outcome"].tolist())
+        if t % 5:
+            continue
+        for lo, hi in [(0, n), (0, n + m), (n, n + m), (2, n + 1), (n + 1, n + 2)]:
+            every = agent_infos(out, n, lo, hi)
+            for e in range(batch.num_envs):
+                mine = world_agent_infos(out, e, n, lo, hi)
+                want = every[e * (hi - lo) : (e + 1) * (hi - lo)]
+                assert [[(k, v, type(v)) for k, v in d.items()] for d in mine] == [[(k, v, type(v)) for k, v in d.items()] for d in want], (t, e, lo, hi)
+    # Running, timed-out and succeeded (captured or cornered: a world capture step) worlds.
+    assert {0, 3} <= outcomes and outcomes & {1, 4}, outcomes
+
+
 def test_vec_env_infos_are_built_only_for_slots_whose_world_ended():
     """Running slots share one empty read-only mapping (SB3 only reads them); the slots of a
     world that ended get dicts of their own whose numbers are that world's row of

@@ -172,18 +172,42 @@ def agent_infos(out: Mapping[str, np.ndarray], n_wolves: int, lo: int, hi: int) 
     distance = out["distance"][:, lo:hi].tolist()
     caps = out["capture_step"].tolist()
     corners = out["cornered_step"].tolist()
-    wolves_in_range = max(0, min(hi, n_wolves) - lo)
-    targets_in_range = slice(max(lo, n_wolves) - n_wolves, max(hi - n_wolves, 0))
     infos = []
     for e, code in enumerate(codes):
-        world_cap = max(caps[e]) if code in _SUCCESS_CODES else -1
-        cap = [world_cap] * wolves_in_range + caps[e][targets_in_range]
-        cornered = first_cornered_step(corners[e])
-        infos.extend(
-            {"outcome": code, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
-            for c, en, co, d in zip(cap, energy[e], collisions[e], distance[e])
-        )
+        infos.extend(_world_infos(code, caps[e], corners[e], energy[e], collisions[e], distance[e], n_wolves, lo, hi))
     return infos
+
+
+def world_agent_infos(out: Mapping[str, np.ndarray], e: int, n_wolves: int, lo: int, hi: int) -> list[dict]:
+    """:func:`agent_infos` of world ``e`` alone — the same dicts — reading only that world's
+    rows. A VecEnv builds infos only for the few worlds that ended in a step, and converting
+    every world's rows for them cost more than the rest of its step's Python side."""
+    return _world_infos(
+        int(out["outcome"][e]),
+        out["capture_step"][e].tolist(),
+        out["cornered_step"][e].tolist(),
+        out["energy"][e, lo:hi].tolist(),
+        out["collisions"][e, lo:hi].tolist(),
+        out["distance"][e, lo:hi].tolist(),
+        n_wolves,
+        lo,
+        hi,
+    )
+
+
+def _world_infos(code: int, caps: list, corners: list, energy: list, collisions: list, distance: list, n_wolves: int, lo: int, hi: int) -> list[dict]:
+    """The info dicts of agents ``lo .. hi`` of one world from its rows as Python lists:
+    ``caps`` and ``corners`` per target, the rest per agent in the range (the definitions:
+    :func:`agent_infos`)."""
+    world_cap = max(caps) if code in _SUCCESS_CODES else -1
+    wolves_in_range = max(0, min(hi, n_wolves) - lo)
+    targets_in_range = slice(max(lo, n_wolves) - n_wolves, max(hi - n_wolves, 0))
+    cap = [world_cap] * wolves_in_range + caps[targets_in_range]
+    cornered = first_cornered_step(corners)
+    return [
+        {"outcome": code, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
+        for c, en, co, d in zip(cap, energy, collisions, distance)
+    ]
 
 
 class BatchEnv:

@@ -60,7 +60,7 @@ import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from wolfpack._checks import check_seed
-from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild
+from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild, world_agent_infos
 from wolfpack.parallel_env import action_box, observation_box
 
 
@@ -285,17 +285,20 @@ class WolfpackVecEnv(VecEnv):
         """Puts a dict into ``infos`` (SB3's per-slot infos of a step, :data:`RUNNING_INFO`
         elsewhere) for each slot of a world that ended (see the module docstring);
         ``final_obs`` [slots, D] holds their last observations."""
-        ended = np.flatnonzero(step_infos["terminated"] | step_infos["truncated"])
-        # Only the ended worlds' rows: the dicts are built for them alone.
-        rows = {k: step_infos[k][ended] for k in _INFO_KEYS}
-        ended_infos = self._slot_infos(rows)
-        per = self.per_world
-        for r, e in enumerate(ended.tolist()):
-            truncated = bool(rows["truncated"][r] and not rows["terminated"][r])
-            for i in range(per):
-                info = ended_infos[r * per + i]
+        terminated, truncated = step_infos["terminated"], step_infos["truncated"]
+        ended = np.flatnonzero(terminated | truncated).tolist()
+        per, lo = self.per_world, self._offset
+        n = self.batch.n_wolves
+        # Each ended world's own rows: converting the rows of all ended worlds together (one
+        # fancy index and .tolist() per array) cost ≈ 12 µs more per step at 1 to 12 ended
+        # worlds, and no less at 100.
+        ended_infos = [world_agent_infos(step_infos, e, n, lo, lo + per) for e in ended]
+        for e, slots in zip(ended, ended_infos):
+            time_limit = bool(truncated[e] and not terminated[e])
+            for i, info in enumerate(slots):
+                info["outcome_name"] = OUTCOMES[info["outcome"]]
                 info["terminal_observation"] = final_obs[e * per + i]
-                info["TimeLimit.truncated"] = truncated
+                info["TimeLimit.truncated"] = time_limit
                 infos[e * per + i] = info
 
 
