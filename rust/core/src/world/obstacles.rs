@@ -188,8 +188,8 @@ pub(crate) struct PolygonDraw {
     size: f64,
     /// Polar angles in the order drawn (the first four one per quadrant).
     angles: Vec<f64>,
-    /// `U(inner, 1)` for each vertex, in the order drawn: the k-th goes to the k-th smallest
-    /// angle.
+    /// `u ~ U(inner, 1)` for each vertex, in the order drawn: the square of its radius as a
+    /// fraction of `size` (radius `sqrt(u)·size`). The k-th goes to the k-th smallest angle.
     radii_squared: Vec<f64>,
 }
 
