@@ -180,7 +180,7 @@ impl Obstacle {
 /// The random draws of one [`Obstacle::random_polygon`], apart from the polygon built from
 /// them: spawning rejects most candidate polygons for lack of room, and a rejection needs only
 /// a bound on the bounding radius, not the sorted angles, the sin/cos of each and two vertex
-/// lists. Spawning drew and built every candidate (≈ 48 per world spawned); with the bound
+/// lists. Spawning drew and built every candidate (≈ 50 per world spawned); with the bound
 /// it builds only those that may fit, from the same draws in the same order. That halved
 /// spawning's instructions: −2.5 % for a scripted episode, −4 % for a batch step.
 #[derive(Debug, Clone, Default)]
