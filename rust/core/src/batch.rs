@@ -210,8 +210,8 @@ pub struct BatchEnv {
 }
 
 impl BatchEnv {
-    /// `num_envs` worlds seeded `seed + i`. `threads`: None = as many as rayon's global pool
-    /// has (all cores, or `RAYON_NUM_THREADS`).
+    /// `num_envs` worlds seeded `seed + i`. `threads`: None = all cores, or `RAYON_NUM_THREADS`
+    /// ([`crate::episode::default_threads`]).
     pub fn new(params: Params, num_envs: usize, learners: Learners, seed: u64, autoreset: bool, threads: Option<usize>) -> Result<Self> {
         Self::new_until(params, num_envs, learners, seed, autoreset, threads, &AtomicBool::new(false))
     }
@@ -236,7 +236,7 @@ impl BatchEnv {
         }
         // The calling thread steps worlds too ([`share`]): t threads are the caller and a
         // crew of t − 1.
-        let t = threads.unwrap_or_else(rayon::current_num_threads).max(1);
+        let t = threads.unwrap_or_else(crate::episode::default_threads).max(1);
         let crew = match t {
             1 => None,
             t => Some(Crew::new(t - 1).map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),

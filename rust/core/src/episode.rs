@@ -101,6 +101,16 @@ pub const MAX_RECORDED_EPISODE_BYTES: u64 = 2 << 30;
 /// the work down.
 pub const MAX_THREADS: usize = 256;
 
+/// What `threads: None` means: `RAYON_NUM_THREADS` when it is a positive integer (rayon's own
+/// rule, which [`run_episodes`] follows through rayon's global pool), else every core this
+/// process may use (its affinity mask and cgroup quota), at most [`MAX_THREADS`]. Worked out
+/// without rayon: asking rayon would start its global pool, whose threads a batch, stepping
+/// on a crew of its own, would never use.
+pub fn default_threads() -> usize {
+    let from_env = std::env::var("RAYON_NUM_THREADS").ok().and_then(|v| v.parse::<usize>().ok()).filter(|&n| n > 0);
+    from_env.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).clamp(1, MAX_THREADS)
+}
+
 /// Checks a thread count (`None`: all cores).
 pub fn check_threads(threads: Option<usize>) -> Result<()> {
     match threads {
