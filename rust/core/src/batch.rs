@@ -65,7 +65,7 @@ pub struct StepOutput {
     /// [E, N] / [E, M], both sides always (the scripted side's too, for evaluation).
     pub rewards_wolves: Vec<f32>,
     pub rewards_targets: Vec<f32>,
-    /// [E]: the episode ended by capture (or cornering, where it counts) or collision / by
+    /// `[E]`: the episode ended by capture (or cornering, where it counts) or collision / by
     /// the step limit.
     pub terminated: Vec<bool>,
     pub truncated: Vec<bool>,
@@ -73,9 +73,9 @@ pub struct StepOutput {
     pub final_obs_wolves: Vec<f32>,
     pub final_obs_targets: Vec<f32>,
     /// Infos of the episode this step belongs to (the finished one on an autoreset).
-    /// [E]: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout, 4 cornered.
+    /// `[E]`: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout, 4 cornered.
     pub outcome: Vec<u8>,
-    /// [E]: steps taken in the episode.
+    /// `[E]`: steps taken in the episode.
     pub steps: Vec<u32>,
     /// [E, M]: step at which each target was captured (or, with `capture.cornered`,
     /// cornered), −1 if not.
@@ -100,7 +100,7 @@ pub fn outcome_code(o: Outcome) -> u8 {
 }
 
 /// Batches of fewer worlds step on the caller's thread whatever the thread count
-/// ([`BatchEnv::steps_inline`]).
+/// (`BatchEnv::steps_inline`).
 pub const INLINE_BELOW: usize = 8;
 
 /// Most worlds in one claim of a shared step ([`BatchEnv::chunk`]): at large batches a claim
