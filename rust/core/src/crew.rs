@@ -245,6 +245,15 @@ fn member(s: &Shared, me: usize, mut seen: usize) {
 mod tests {
     use super::*;
 
+    /// Runs one job on `crew` and returns the participant numbers that ran it, sorted.
+    fn who_runs_a_job(crew: &mut Crew) -> Vec<usize> {
+        let ran = Mutex::new(Vec::new());
+        crew.run(&|w| ran.lock().unwrap().push(w));
+        let mut ran = ran.into_inner().unwrap();
+        ran.sort_unstable();
+        ran
+    }
+
     #[test]
     fn every_member_and_the_caller_run_each_job_once() {
         let mut crew = Crew::new(3).unwrap();
@@ -259,13 +268,7 @@ mod tests {
                 std::thread::sleep(LINGER * 4);
             }
         }
-        let mut alone = Crew::new(0).unwrap();
-        let ran = AtomicUsize::new(0);
-        alone.run(&|w| {
-            assert_eq!(w, 0);
-            ran.fetch_add(1, Ordering::Relaxed);
-        });
-        assert_eq!(ran.load(Ordering::Relaxed), 1);
+        assert_eq!(who_runs_a_job(&mut Crew::new(0).unwrap()), [0], "a crew of none: the caller alone");
     }
 
     #[test]
@@ -284,11 +287,7 @@ mod tests {
         assert!(r.is_err());
         assert_eq!(finished.load(Ordering::SeqCst), 2, "the caller returned before the others finished");
         // The crew still works after a panic.
-        let n = AtomicUsize::new(0);
-        crew.run(&|_| {
-            n.fetch_add(1, Ordering::Relaxed);
-        });
-        assert_eq!(n.load(Ordering::Relaxed), 3);
+        assert_eq!(who_runs_a_job(&mut crew), [0, 1, 2]);
     }
 
     /// A member waiting awake for its own crew's next job parks as soon as another crew starts
@@ -309,11 +308,7 @@ mod tests {
             }
         });
         assert_eq!(parked(&a), 1, "crew a's member still spinning through crew b's job");
-        let ran = AtomicUsize::new(0);
-        a.run(&|_| {
-            ran.fetch_add(1, Ordering::SeqCst);
-        });
-        assert_eq!(ran.load(Ordering::SeqCst), 2);
+        assert_eq!(who_runs_a_job(&mut a), [0, 1]);
     }
 
     #[test]
