@@ -1,4 +1,5 @@
-"""rust/pgo/rustc-wrapper: which compilations get the profile-guided optimisation flag.
+"""How the extension is built: the allocator it links, and which compilations get the
+profile-guided optimisation flag (rust/pgo/rustc-wrapper).
 
 The wrapper sits between cargo and rustc for every crate of every build in this workspace, so
 the tests run it with `echo` standing in for rustc and read back the command line it would run.
@@ -11,6 +12,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -19,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 WRAPPER = ROOT / "rust" / "pgo" / "rustc-wrapper"
 PROFILE = ROOT / "rust" / "pgo" / "wolfpack.profdata"
 
-pytestmark = pytest.mark.skipif(shutil.which("sh") is None, reason="the wrapper is a POSIX sh script")
+needs_sh = pytest.mark.skipif(shutil.which("sh") is None, reason="the wrapper is a POSIX sh script")
 
 OURS = ["--crate-name", "wolfpack_core", "--edition=2021", "rust/core/src/lib.rs", "-C", "opt-level=3"]
 LINUX = ["--target", "x86_64-unknown-linux-gnu"]
@@ -36,6 +38,7 @@ def use_flag() -> str:
     return f"-Cprofile-use={PROFILE}"
 
 
+@needs_sh
 def test_cargo_runs_the_wrapper_from_the_workspace_config():
     tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
     config = tomllib.loads((ROOT / ".cargo" / "config.toml").read_text(encoding="utf-8"))
@@ -48,17 +51,20 @@ def test_the_profile_is_in_the_repository():
     assert PROFILE.is_file() and PROFILE.stat().st_size > 0
 
 
+@needs_sh
 @pytest.mark.parametrize("crate", ["wolfpack_core", "_core"])
 def test_our_optimised_linux_crates_get_the_profile(crate):
     args = ["--crate-name", crate, *OURS[2:], *LINUX]
     assert wrapped(args) == [*args, use_flag()]
 
 
+@needs_sh
 def test_joined_flag_spellings_count_too():
     args = ["--crate-name", "_core", "-Copt-level=3", "--target=x86_64-unknown-linux-gnu"]
     assert wrapped(args) == [*args, use_flag()]
 
 
+@needs_sh
 @pytest.mark.parametrize(
     "args",
     [
@@ -75,6 +81,7 @@ def test_everything_else_passes_through_unchanged(args):
     assert wrapped(args) == args
 
 
+@needs_sh
 @pytest.mark.parametrize("off", ["0", "off", "no", "false"])
 def test_wolfpack_pgo_off_turns_it_off(off):
     args = [*OURS, *LINUX]
@@ -82,13 +89,72 @@ def test_wolfpack_pgo_off_turns_it_off(off):
     assert wrapped(args, WOLFPACK_PGO="1") == [*args, use_flag()]
 
 
+@needs_sh
 def test_without_target_the_host_decides():
     # Cargo passes no --target when building for the host.
     host_is_x86_64_linux = os.uname().sysname == "Linux" and os.uname().machine == "x86_64"
     assert wrapped(OURS) == (OURS + [use_flag()] if host_is_x86_64_linux else OURS)
 
 
+@needs_sh
 def test_arguments_with_spaces_survive():
     args = [*OURS, *LINUX, "--cfg", 'feature="a b"']
     out = subprocess.run([str(WRAPPER), "printf", "%s\n", *args], capture_output=True, text=True, check=True)
     assert out.stdout.splitlines() == [*args, use_flag()]
+
+
+def test_the_extension_loads_after_torch_and_steps_threads_across_a_fork():
+    """mimalloc (rust/py/src/lib.rs) must load with dlopen after torch has taken its share of
+    the static TLS block, and a batch stepped on two threads must step again in a forked child
+    (which has none of the parent's threads)."""
+    pytest.importorskip("torch")
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork on this platform")
+    script = """
+import os
+import torch  # first: its libraries take static TLS before the extension is loaded
+import numpy as np
+import wolfpack
+env = wolfpack.BatchEnv(num_envs=8, seed=0, threads=2)
+env.reset()
+zeros = np.zeros((8, env.n_wolves, 2), np.float32)
+for _ in range(5):
+    env.step(zeros)
+pid = os.fork()
+if pid == 0:
+    for _ in range(5):
+        env.step(zeros)
+    os._exit(0)
+_, status = os.waitpid(pid, 0)
+assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, status
+print("ok")
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+
+
+def dynamic_flags(library: Path) -> int:
+    """DT_FLAGS of an ELF64 little-endian shared library (0 when it has none)."""
+    import struct
+
+    data = library.read_bytes()
+    assert data[:4] == b"\x7fELF" and data[4] == 2 and data[5] == 1, "expected ELF64 little-endian"
+    (shoff,) = struct.unpack_from("<Q", data, 0x28)
+    shentsize, shnum = struct.unpack_from("<HH", data, 0x3A)
+    for k in range(shnum):
+        sh_type, = struct.unpack_from("<I", data, shoff + k * shentsize + 4)
+        if sh_type == 6:  # SHT_DYNAMIC: (tag, value) pairs
+            offset, size = struct.unpack_from("<QQ", data, shoff + k * shentsize + 0x18)
+            for tag, value in struct.iter_unpack("<qQ", data[offset : offset + size]):
+                if tag == 0x1E:  # DT_FLAGS
+                    return value
+    return 0
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="an ELF check")
+def test_the_extension_needs_no_static_tls():
+    # DF_STATIC_TLS: the library uses initial-exec TLS, which dlopen can only serve from the
+    # static block's small surplus. mimalloc without `local_dynamic_tls` sets it.
+    from wolfpack import _core
+
+    assert not dynamic_flags(Path(_core.__file__)) & 0x10
