@@ -42,7 +42,9 @@ def use_flag() -> str:
 def test_cargo_runs_the_wrapper_from_the_workspace_config():
     tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
     config = tomllib.loads((ROOT / ".cargo" / "config.toml").read_text(encoding="utf-8"))
-    assert (ROOT / config["build"]["rustc-wrapper"]).resolve() == WRAPPER
+    # The workspace wrapper: only this workspace's crates, after any RUSTC_WRAPPER (sccache).
+    assert "rustc-wrapper" not in config["build"]
+    assert (ROOT / config["build"]["rustc-workspace-wrapper"]).resolve() == WRAPPER
     assert os.access(WRAPPER, os.X_OK), "cargo executes the wrapper directly"
 
 
