@@ -160,3 +160,20 @@ def test_the_extension_needs_no_static_tls():
     from wolfpack import _core
 
     assert not dynamic_flags(Path(_core.__file__)) & 0x10
+
+
+@pytest.mark.skipif(not (sys.platform == "linux" and os.uname().machine == "x86_64"), reason="PGO is applied on x86_64 Linux only")
+def test_the_release_extension_in_this_checkout_was_profile_guided():
+    """Guards against the wrapper silently stepping aside (say, if cargo changed how it spells
+    the crate name or the opt-level): rustc lists `-Cprofile-use`'s file among a build's inputs,
+    so the dep-info of the release extension built here (by `pip install -e .` or
+    `maturin develop --release`) must name the profile."""
+    dep_infos = sorted((ROOT / "target" / "release" / "deps").glob("_core*.d"), key=lambda p: p.stat().st_mtime)
+    if not dep_infos:
+        pytest.skip("no release build of the extension in this checkout")
+    if os.environ.get("WOLFPACK_PGO", "1").lower() in ("0", "off", "no", "false") or os.environ.get("RUSTC_WORKSPACE_WRAPPER") == "":
+        pytest.skip("PGO turned off in this environment")
+    assert str(PROFILE) in dep_infos[-1].read_text(encoding="utf-8"), (
+        f"{dep_infos[-1]} does not list {PROFILE}: the last release build was not profile-guided "
+        "(built with WOLFPACK_PGO=0? then rebuild without it)"
+    )
