@@ -5,18 +5,6 @@
 //! `RuntimeError` — it never unwinds into Python.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
-
-/// The extension's Rust allocations (the worlds, their obstacles and vertex lists, the step's
-/// outputs) come from mimalloc, not glibc's malloc: its size-segregated pages without per-block
-/// headers pack a large batch's ≈ 54 small allocations per world more densely, which a batch of
-/// 8,192 worlds (≈ 94 MB of state, far beyond the caches) steps 7–10 % faster on (BENCHMARKS.md,
-/// "Issue 17, seventh session"); smaller batches and the scripted hunt are unchanged. Python's
-/// own objects keep Python's allocator; numpy arrays made from Rust vectors are freed by Rust.
-/// `local_dynamic_tls`: Python loads this library with dlopen, after libraries such as torch
-/// that use up the static TLS block, where mimalloc's default initial-exec TLS fails to load
-/// ("cannot allocate memory in static TLS block"); tests/test_build.py imports it after torch.
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, RecvTimeoutError};
 use std::time::Duration;
@@ -33,6 +21,19 @@ use wolfpack_core::episode::{run_episodes_until, EpisodeResult, Trajectory};
 use wolfpack_core::world::{Layout, World};
 use wolfpack_core::render::{render, Scene};
 use wolfpack_core::{Error, Params};
+
+/// The extension's Rust allocations (the worlds, their obstacles and vertex lists, the step's
+/// outputs) come from mimalloc, not glibc's malloc. Measured: a batch of 8,192 worlds (≈ 94 MB
+/// of state, far beyond the caches) steps 7–10 % faster; smaller batches and the scripted hunt
+/// are unchanged (BENCHMARKS.md, "Issue 17, seventh session"). Most likely its size-segregated
+/// pages without per-block headers pack a batch's ≈ 54 small allocations per world more densely
+/// than glibc does. Python's own objects keep Python's allocator; numpy arrays made from Rust
+/// vectors are freed by Rust. `local_dynamic_tls`: Python loads this library with dlopen, after
+/// libraries such as torch that use up the static TLS block, where mimalloc's default
+/// initial-exec TLS can fail to load ("cannot allocate memory in static TLS block");
+/// tests/test_build.py checks the library needs no static TLS and imports it after torch.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn value_error(e: Error) -> PyErr {
     PyValueError::new_err(e.to_string())
