@@ -23,6 +23,10 @@ PROFILE = ROOT / "rust" / "pgo" / "wolfpack.profdata"
 
 needs_sh = pytest.mark.skipif(shutil.which("sh") is None, reason="the wrapper is a POSIX sh script")
 
+#: The values of WOLFPACK_PGO that the wrapper reads as "off" (exactly these, case included).
+PGO_OFF = ("0", "off", "no", "false")
+HOST_IS_X86_64_LINUX = sys.platform == "linux" and os.uname().machine == "x86_64"
+
 OURS = ["--crate-name", "wolfpack_core", "--edition=2021", "rust/core/src/lib.rs", "-C", "opt-level=3"]
 LINUX = ["--target", "x86_64-unknown-linux-gnu"]
 
@@ -84,7 +88,7 @@ def test_everything_else_passes_through_unchanged(args):
 
 
 @needs_sh
-@pytest.mark.parametrize("off", ["0", "off", "no", "false"])
+@pytest.mark.parametrize("off", PGO_OFF)
 def test_wolfpack_pgo_off_turns_it_off(off):
     args = [*OURS, *LINUX]
     assert wrapped(args, WOLFPACK_PGO=off) == args
@@ -94,8 +98,7 @@ def test_wolfpack_pgo_off_turns_it_off(off):
 @needs_sh
 def test_without_target_the_host_decides():
     # Cargo passes no --target when building for the host.
-    host_is_x86_64_linux = os.uname().sysname == "Linux" and os.uname().machine == "x86_64"
-    assert wrapped(OURS) == (OURS + [use_flag()] if host_is_x86_64_linux else OURS)
+    assert wrapped(OURS) == (OURS + [use_flag()] if HOST_IS_X86_64_LINUX else OURS)
 
 
 @needs_sh
@@ -162,7 +165,7 @@ def test_the_extension_needs_no_static_tls():
     assert not dynamic_flags(Path(_core.__file__)) & 0x10
 
 
-@pytest.mark.skipif(not (sys.platform == "linux" and os.uname().machine == "x86_64"), reason="PGO is applied on x86_64 Linux only")
+@pytest.mark.skipif(not HOST_IS_X86_64_LINUX, reason="PGO is applied on x86_64 Linux only")
 def test_the_release_extension_in_this_checkout_was_profile_guided():
     """Guards against the wrapper silently stepping aside (say, if cargo changed how it spells
     the crate name or the opt-level): rustc lists `-Cprofile-use`'s file among a build's inputs,
@@ -171,7 +174,7 @@ def test_the_release_extension_in_this_checkout_was_profile_guided():
     dep_infos = sorted((ROOT / "target" / "release" / "deps").glob("_core*.d"), key=lambda p: p.stat().st_mtime)
     if not dep_infos:
         pytest.skip("no release build of the extension in this checkout")
-    if os.environ.get("WOLFPACK_PGO", "1").lower() in ("0", "off", "no", "false") or os.environ.get("RUSTC_WORKSPACE_WRAPPER") == "":
+    if os.environ.get("WOLFPACK_PGO") in PGO_OFF or os.environ.get("RUSTC_WORKSPACE_WRAPPER") == "":
         pytest.skip("PGO turned off in this environment")
     assert str(PROFILE) in dep_infos[-1].read_text(encoding="utf-8"), (
         f"{dep_infos[-1]} does not list {PROFILE}: the last release build was not profile-guided "
