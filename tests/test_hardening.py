@@ -454,6 +454,47 @@ def test_a_ctrl_c_that_python_swallows_in_a_finalizer_still_stops_the_run(monkey
     assert not (tmp_path / "run" / "summary.json").exists()
 
 
+def test_a_ctrl_c_that_an_extension_turns_into_an_import_error_still_stops_the_run_cleanly(monkeypatch, capsys, tmp_path):
+    """A KeyboardInterrupt raised while a C extension initialises reaches Python as
+    ``ImportError: initialization failed`` (seen in CI: Ctrl-C while the first savefig imported
+    matplotlib's Agg backend). It must still end the run as a Ctrl-C: status 130, one line, the
+    finished episodes kept, not a traceback and not the run's files removed."""
+    from wolfpack import plots
+
+    real = plots.plot_trajectory
+    calls = {"n": 0}
+
+    def plot(arrays, path, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:  # the second episode's first plot
+            try:
+                cli._CtrlC.handler(signal.SIGINT, None)  # what the signal does
+            except KeyboardInterrupt:
+                raise ImportError("initialization failed") from None  # what the extension makes of it
+        return real(arrays, path, **kwargs)
+
+    monkeypatch.setattr(plots, "plot_trajectory", plot)
+    out = tmp_path / "run"
+    status, err = _run_main(["hunt", "--episodes", "4", "--plots", "4", "--out", out, "--set", "world.max_steps=30"], capsys)
+    assert status == 130 and err.count("\n") == 1 and err.startswith("wolfpack: interrupted; ") and "INCOMPLETE" in err, err
+    assert "2 of 4 episodes" in err, err  # episode 1's trajectory was written before its plots
+    assert sorted(p.name for p in out.iterdir()) == ["INCOMPLETE", "episode_000", "episode_001"]
+    _assert_every_file_complete(out)
+
+
+def test_an_error_without_a_ctrl_c_still_removes_the_run_and_is_not_called_an_interrupt(monkeypatch, capsys, tmp_path):
+    from wolfpack import plots
+
+    def plot(arrays, path, **kwargs):
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(plots, "plot_trajectory", plot)
+    out = tmp_path / "run"
+    with pytest.raises(ImportError):
+        cli.main(["hunt", "--episodes", "2", "--plots", "1", "--out", str(out), "--set", "world.max_steps=30"])
+    assert not out.exists()
+
+
 # --- replay checks the file ---------------------------------------------------------------------
 
 

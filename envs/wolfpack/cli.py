@@ -282,6 +282,15 @@ class _CtrlC:
             raise KeyboardInterrupt
 
     @classmethod
+    def caused(cls, error: BaseException) -> bool:
+        """Whether ``error`` is how a Ctrl-C surfaced. A KeyboardInterrupt raised inside a C
+        extension's module initialisation reaches us as ``ImportError: initialization failed``
+        (pybind11 wraps it; seen when Ctrl-C lands while the first savefig imports
+        matplotlib's Agg backend), and other native code may wrap it likewise; any error that
+        follows a recorded Ctrl-C is therefore treated as the interrupt."""
+        return isinstance(error, KeyboardInterrupt) or (cls.pending and isinstance(error, Exception))
+
+    @classmethod
     def checked(cls, items):
         """``items``, checking for a pending Ctrl-C before each."""
         for item in items:
@@ -307,7 +316,12 @@ def _ctrl_c_handled() -> Iterator[None]:
     sys.unraisablehook = hook
     try:
         yield
+    except Exception as error:
+        if _CtrlC.caused(error):
+            raise KeyboardInterrupt from error
+        raise
     finally:
+        _CtrlC.pending = False  # handled now; a later command in this process starts afresh
         sys.unraisablehook = previous_hook
         signal.signal(signal.SIGINT, previous if previous is not None else signal.default_int_handler)
 
@@ -582,14 +596,14 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
             writer.write_summary(full)
             run.commit()
         _report(summary, args, resolved)
-    except KeyboardInterrupt:
+    except BaseException as error:
+        if not _CtrlC.caused(error):
+            with _sigint_held(drop=True):
+                run.discard()
+            raise
         with _sigint_held(drop=True):
             detail = run.interrupted(writer.count if writer else 0, args.episodes)
         raise Interrupted(detail) from None
-    except BaseException:
-        with _sigint_held(drop=True):
-            run.discard()
-        raise
 
 
 def _report(summary: dict, args, resolved: dict) -> None:

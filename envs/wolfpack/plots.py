@@ -18,6 +18,11 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon, Rectangle
 from matplotlib.ticker import MaxNLocator
 
+# Figure.savefig imports the Agg backend (a C extension) at its first call; importing it here
+# moves that cost, and the window in which a Ctrl-C turns into "ImportError: initialization
+# failed" inside the extension's initialisation, to start-up instead of the middle of a run.
+import matplotlib.backends.backend_agg  # noqa: F401
+
 OUTCOMES = ("captured", "cornered", "collision", "timeout")
 _OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
 _TARGET_COLOUR = "crimson"
