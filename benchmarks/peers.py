@@ -617,10 +617,34 @@ def rate(entry: dict | None) -> float | None:
     return None if not entry or "skipped" in entry else entry.get("env_steps_per_second")
 
 
+def round_rates(entry: dict | None) -> list[float]:
+    """A contender's rate in each round, in round order (empty when it was skipped)."""
+    return [] if not entry or "skipped" in entry else list(entry.get("rates") or [])
+
+
+def paired_ratios(ours: dict | None, peers: list[dict | None]) -> list[float]:
+    """Round by round, our rate over the best of the peers' rates in that same round: the
+    contenders of a round run minutes apart at most, so a machine that speeds up or slows down
+    between rounds (a VM's neighbours) moves both sides of each ratio alike. Rounds where we or
+    every peer have no rate are left out."""
+    mine = round_rates(ours)
+    theirs = [round_rates(p) for p in peers]
+    out = []
+    for k, a in enumerate(mine):
+        best = max((r[k] for r in theirs if k < len(r)), default=None)
+        if a and best:
+            out.append(a / best)
+    return out
+
+
 def size_ratios(row: dict, threads: list[int]) -> dict:
     tmax = max(threads)
     jax_best = max((r for r in (rate(row.get("jaxmarl_loop")), rate(row.get("jaxmarl_scan"))) if r), default=None)
-    out = {f"BatchEnv({tmax}t) / JaxMARL best": ratio(rate(row.get(f"batch_env_{tmax}t")), jax_best)}
+    ours = row.get(f"batch_env_{tmax}t")
+    out = {f"BatchEnv({tmax}t) / JaxMARL best": ratio(rate(ours), jax_best)}
+    by_round = paired_ratios(ours, [row.get("jaxmarl_loop"), row.get("jaxmarl_scan")])
+    out[f"BatchEnv({tmax}t) / JaxMARL best, each round"] = [round(x, 3) for x in by_round]
+    out[f"BatchEnv({tmax}t) / JaxMARL best, lowest round"] = min(by_round, default=None)
     for t in threads:
         out[f"make_vec_env({t}t) / BatchEnv({t}t)"] = ratio(rate(row.get(f"vec_env_{t}t")), rate(row.get(f"batch_env_{t}t")))
     out[f"BatchEnv({tmax}t) / VMAS"] = ratio(rate(row.get(f"batch_env_{tmax}t")), rate(row.get("vmas")))
@@ -657,13 +681,14 @@ def tables(report: dict) -> str:
             f"{r['round']}: {r['load_before']} -> {r['load_after']}, others {r['others_cores']} ({r['seconds']:.0f} s)" for r in report["rounds"]
         ),
         "",
-        "env-steps/s by batch size E (an env-step = one world advanced one step):",
+        "env-steps/s by batch size E (an env-step = one world advanced one step); ratios of the medians,"
+        " and 'lowest round' the smallest of the ratios taken round by round (both sides of each from the same round):",
         "",
     ]
     cols = [f"batch_env_{t}t" for t in threads] + [f"vec_env_{t}t" for t in threads] + ["vmas", "jaxmarl_loop", "jaxmarl_scan"]
     heads = [f"BatchEnv {t}t" for t in threads] + [f"make_vec_env {t}t" for t in threads] + ["VMAS cpu", "JaxMARL jit+vmap loop", "JaxMARL lax.scan"]
-    rkeys = [f"BatchEnv({tmax}t) / JaxMARL best"] + [f"make_vec_env({t}t) / BatchEnv({t}t)" for t in threads]
-    rheads = [f"BatchEnv {tmax}t / JaxMARL best"] + [f"vec / Batch {t}t" for t in threads]
+    rkeys = [f"BatchEnv({tmax}t) / JaxMARL best", f"BatchEnv({tmax}t) / JaxMARL best, lowest round"] + [f"make_vec_env({t}t) / BatchEnv({t}t)" for t in threads]
+    rheads = [f"BatchEnv {tmax}t / JaxMARL best", "lowest round"] + [f"vec / Batch {t}t" for t in threads]
     rows = [["E"] + heads + rheads]
     for E, row in report["batch"].items():
         rr = report["ratios_by_size"][E]

@@ -106,3 +106,33 @@ def test_alternating_benchmark_runs_and_reports_both_rates():
     assert line.startswith("E=8 threads=2 round 1: one batch ") and "two in turn" in line, line
     rates = [float(w) for w in line.replace(",", " ").split() if w.replace(".", "").isdigit()]
     assert len(rates) >= 2 and all(r > 0 for r in rates[-2:]), line
+
+
+def _peers_module(monkeypatch):
+    if not SCRIPT.exists():
+        pytest.skip("benchmarks/peers.py is not part of this checkout")
+    monkeypatch.syspath_prepend(str(SCRIPT.parent))  # its sibling modules, as when run as a script
+    spec = importlib.util.spec_from_file_location("wolfpack_bench_peers", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_ratios_to_jaxmarl_pair_the_rates_of_each_round(monkeypatch) -> None:
+    """'lowest round' pairs our rate with the best JaxMARL variant of the same round (hand-worked:
+    3/1.5, 6/2, 9/4), so a machine that speeds up between rounds does not flatter either side."""
+    peers = _peers_module(monkeypatch)
+    row = {
+        "batch_env_2t": {"rates": [3.0, 6.0, 9.0], "env_steps_per_second": 6.0},
+        "jaxmarl_loop": {"rates": [1.0, 2.0, 4.0], "env_steps_per_second": 2.0},
+        "jaxmarl_scan": {"rates": [1.5, 1.0, 3.0], "env_steps_per_second": 1.5},
+    }
+    r = peers.size_ratios(row, [1, 2])
+    assert r["BatchEnv(2t) / JaxMARL best"] == pytest.approx(3.0)  # medians: 6 / max(2, 1.5)
+    assert r["BatchEnv(2t) / JaxMARL best, each round"] == pytest.approx([2.0, 3.0, 2.25])
+    assert r["BatchEnv(2t) / JaxMARL best, lowest round"] == pytest.approx(2.0)
+    row["jaxmarl_scan"] = {"skipped": "jaxmarl is not installed"}
+    assert peers.size_ratios(row, [1, 2])["BatchEnv(2t) / JaxMARL best, each round"] == pytest.approx([3.0, 3.0, 2.25])
+    row["jaxmarl_loop"] = {"skipped": "jaxmarl is not installed"}
+    r = peers.size_ratios(row, [1, 2])
+    assert r["BatchEnv(2t) / JaxMARL best, each round"] == [] and r["BatchEnv(2t) / JaxMARL best, lowest round"] is None
