@@ -1,6 +1,8 @@
 //! The native batch: determinism over threads and batch splits, same-step autoreset, the
 //! expert reproducing the scripted laws, and bad actions.
 
+use std::alloc::{GlobalAlloc, Layout, System};
+
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
@@ -8,6 +10,34 @@ use wolfpack_core::config::{ActionMode, WolfPolicy};
 use wolfpack_core::episode::run_episodes;
 use wolfpack_core::world::Outcome;
 use wolfpack_core::Params;
+
+/// The system allocator, except that memory not asked for zeroed starts as 0xFF bytes (NaN as
+/// f32 and f64, -1 as integers): an output the batch allocates uninitialised and then forgets to
+/// write reads as NaN in these tests, instead of whatever the reused block happened to hold
+/// (often zeros, which would pass).
+struct Poisoned;
+
+// SAFETY: every call is forwarded to `System`; `alloc` only writes inside the block it returns.
+unsafe impl GlobalAlloc for Poisoned {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            unsafe { std::ptr::write_bytes(p, 0xFF, layout.size()) };
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, p: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(p, layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        unsafe { System.alloc_zeroed(layout) }
+    }
+}
+
+#[global_allocator]
+static POISONED: Poisoned = Poisoned;
 
 fn random_actions(rng: &mut ChaCha8Rng, len: usize) -> Vec<f32> {
     (0..len).map(|_| rng.random_range(-1.2f32..1.2)).collect()
@@ -100,6 +130,35 @@ fn autoreset_keeps_the_final_observation_and_starts_a_new_episode() {
         // ... and the new episode is episode 1 of world 0's seed, not a copy of episode 0.
         assert_eq!(env.world_seed(0), Some((0, 1)));
         assert_ne!(&o.obs_wolves[..dw], &first.obs_wolves[..dw]);
+    }
+}
+
+#[test]
+fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did() {
+    // The final-observation arrays are allocated uninitialised and zeroed by each world's task;
+    // a world that skipped that would hand out the allocator's old bytes where the interface
+    // promises zeros (NaN here: see `Poisoned`).
+    let mut p = Params::default();
+    p.world.max_steps = 3;
+    let mut env = BatchEnv::new(p, 3, Learners::All, 0, true, Some(2)).unwrap();
+    env.reset(Some(0)).unwrap();
+    let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
+    let (wa, ta) = (vec![0.3f32; 3 * 5 * 2], vec![0.3f32; 3 * 2]);
+    for t in 1..=3 {
+        let o = env.step(&wa, &ta).unwrap();
+        assert_eq!((o.final_obs_wolves.len(), o.final_obs_targets.len()), (3 * 5 * dw, 3 * dt));
+        let ended: Vec<bool> = o.terminated.iter().zip(&o.truncated).map(|(a, b)| *a || *b).collect();
+        for w in 0..3 {
+            let (fw, ft) = (&o.final_obs_wolves[w * 5 * dw..(w + 1) * 5 * dw], &o.final_obs_targets[w * dt..(w + 1) * dt]);
+            if ended[w] {
+                assert!(fw.iter().any(|x| *x != 0.0) && ft.iter().any(|x| *x != 0.0), "step {t}, world {w}: ended, its final observations are empty");
+            } else {
+                assert!(fw.iter().chain(ft).all(|x| *x == 0.0), "step {t}, world {w}: not ended, final observations not zero");
+            }
+        }
+        if t == 3 {
+            assert!(ended.iter().all(|e| *e), "max_steps = 3 ends every episode at step 3");
+        }
     }
 }
 
