@@ -136,6 +136,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // headings rounded by hand: any heading will do here
     fn capture_pays_the_bonus_and_zeroes_the_potential() {
         // Four wolves at 0.75 m around the target, one of them steps in: captured at step 1.
         let ring = vec![[0.75, 0.0, 3.14159], [-0.75, 0.0, 0.0], [0.0, 0.75, 4.712], [0.0, -0.75, 1.5708], [5.0, 5.0, 0.0]];

@@ -143,14 +143,14 @@ fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did()
     let mut env = BatchEnv::new(p, 3, Learners::All, 0, true, Some(2)).unwrap();
     env.reset(Some(0)).unwrap();
     let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
-    let (wa, ta) = (vec![0.3f32; 3 * 5 * 2], vec![0.3f32; 3 * 2]);
+    let (wa, ta) = ([0.3f32; 3 * 5 * 2], [0.3f32; 3 * 2]);
     for t in 1..=3 {
         let o = env.step(&wa, &ta).unwrap();
         assert_eq!((o.final_obs_wolves.len(), o.final_obs_targets.len()), (3 * 5 * dw, 3 * dt));
         let ended: Vec<bool> = o.terminated.iter().zip(&o.truncated).map(|(a, b)| *a || *b).collect();
-        for w in 0..3 {
+        for (w, &ended) in ended.iter().enumerate() {
             let (fw, ft) = (&o.final_obs_wolves[w * 5 * dw..(w + 1) * 5 * dw], &o.final_obs_targets[w * dt..(w + 1) * dt]);
-            if ended[w] {
+            if ended {
                 assert!(fw.iter().any(|x| *x != 0.0) && ft.iter().any(|x| *x != 0.0), "step {t}, world {w}: ended, its final observations are empty");
             } else {
                 assert!(fw.iter().chain(ft).all(|x| *x == 0.0), "step {t}, world {w}: not ended, final observations not zero");

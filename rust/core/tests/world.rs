@@ -292,6 +292,8 @@ fn episode_times_out_at_max_steps() {
 }
 
 #[test]
+// `row * k + col` spelled out, row 0 and column 0 included, as the matrix is laid out.
+#[allow(clippy::erasing_op, clippy::identity_op)]
 fn sensing_fills_the_interaction_matrix_and_first_sighting() {
     // Wolf 0 at 2.9 m (senses), wolf 1 at 3.1 m (does not).
     let l = layout(vec![[-2.9, 0.0, 0.0], [3.1, 0.0, 0.0]], vec![[0.0, 0.0, 1.0]], vec![]);
