@@ -742,7 +742,7 @@ impl<'a> OutPieces<'a> {
     /// The pieces of `o` (from [`BatchEnv::alloc`], observation arrays `lens` long) for `e`
     /// worlds of `n` wolves and `m` targets.
     fn new(o: &'a mut StepOutput, lens: ObsLens, e: usize, n: usize, m: usize) -> Self {
-        let per = |v: usize| if e == 0 { 0 } else { v / e };
+        let per = |v: usize| v.checked_div(e).unwrap_or(0);
         let [dw, dt] = lens.0.map(per);
         let per = [dw, dt, per(o.rewards_wolves.len()), per(o.rewards_targets.len()), per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()), m, n + m];
         let unfilled = |v: &'a mut Vec<f32>, len: usize| Disjoint::new(&mut v.spare_capacity_mut()[..len]);

@@ -47,7 +47,7 @@ pub fn wrap(a: f64) -> f64 {
 pub fn rem_euclid_tau(a: f64) -> f64 {
     // rem_euclid is `r = a % TAU; if r < 0 { r + TAU } else { r }`. For a ∈ (−2π, 2π) the fmod
     // returns `a` itself; for a ∈ [2π, 4π) it returns a − 2π, which is exact (Sterbenz).
-    if a >= 0.0 && a < TAU {
+    if (0.0..TAU).contains(&a) {
         a
     } else if a > -TAU && a < 0.0 {
         a + TAU

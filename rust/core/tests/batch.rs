@@ -174,7 +174,7 @@ fn invalid_actions_are_named_and_move_nothing() {
     assert_eq!(env.world(0).unwrap().t, 0);
     let e = env.step(&acts[..4], &[]).unwrap_err().to_string();
     assert!(e.contains("expected 30"), "{e}");
-    let e = env.step(&vec![0.0; 30], &[0.0, 0.0]).unwrap_err().to_string();
+    let e = env.step(&[0.0; 30], &[0.0, 0.0]).unwrap_err().to_string();
     assert!(e.contains("scripted"), "{e}");
 }
 

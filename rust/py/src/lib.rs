@@ -387,6 +387,12 @@ fn exact_actions<'py, D: numpy::ndarray::Dimension>(obj: &Bound<'py, PyAny>, sha
     arr.try_readonly().ok()
 }
 
+/// One side's actions as `step` takes them (None: that side gives none).
+type SideActions<'py> = Option<PyReadonlyArray3<'py, f32>>;
+
+/// An array for one side, or None where that side has none.
+type SideArray<'py> = Option<Bound<'py, PyAny>>;
+
 /// `step`'s fast test: the actions of both sides as `step` takes them, or None when one is
 /// not exactly what it must be (float32, C-contiguous, [E, K, 2]), is missing for a learning
 /// side or given for a scripted one.
@@ -394,10 +400,10 @@ fn exact_step_actions<'py>(
     env: &BatchEnv,
     wolf_actions: Option<&Bound<'py, PyAny>>,
     target_actions: Option<&Bound<'py, PyAny>>,
-) -> Option<(Option<PyReadonlyArray3<'py, f32>>, Option<PyReadonlyArray3<'py, f32>>)> {
+) -> Option<(SideActions<'py>, SideActions<'py>)> {
     let e = env.num_envs();
     let l = env.learners();
-    let side = |obj: Option<&Bound<'py, PyAny>>, learns: bool, k: usize| -> Option<Option<PyReadonlyArray3<'py, f32>>> {
+    let side = |obj: Option<&Bound<'py, PyAny>>, learns: bool, k: usize| -> Option<SideActions<'py>> {
         match (obj.filter(|o| !o.is_none()), learns) {
             (None, false) => Some(None),
             (Some(o), true) => exact_actions(o, &[e, k, 2]).map(Some),
@@ -604,7 +610,7 @@ impl PyBatchEnv {
 
     /// The scripted laws' actions for the learning sides: (wolves [E, N, 2] or None,
     /// targets [E, M, 2] or None), float32.
-    fn expert_actions<'py>(&mut self, py: Python<'py>) -> PyResult<(Option<Bound<'py, PyAny>>, Option<Bound<'py, PyAny>>)> {
+    fn expert_actions<'py>(&mut self, py: Python<'py>) -> PyResult<(SideArray<'py>, SideArray<'py>)> {
         let env = &mut self.inner;
         let (aw, at) = py.detach(|| guarded(|| env.expert_actions()))?;
         let e = self.inner.num_envs();

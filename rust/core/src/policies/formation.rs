@@ -146,10 +146,8 @@ pub fn path_length(path: &[Vec2]) -> f64 {
 
 /// The bump function h(x) with parameter δ ∈ (0, 1).
 pub fn bump(x: f64, delta: f64) -> f64 {
-    if x < 0.0 {
-        1.0
-    } else if x < delta {
-        1.0
+    if x < delta {
+        1.0 // x < 0 included
     } else if x <= 1.0 {
         0.5 * (1.0 + (std::f64::consts::PI * (x - delta) / (1.0 - delta)).cos())
     } else {

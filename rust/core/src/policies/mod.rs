@@ -100,6 +100,12 @@ pub struct LastCall<V> {
     value: Option<V>,
 }
 
+impl<V: Clone> Default for LastCall<V> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<V: Clone> LastCall<V> {
     pub const fn new() -> Self {
         LastCall { key: Vec::new(), value: None }

@@ -11,6 +11,9 @@ use super::step::sense_into;
 use super::World;
 use crate::policies::{self, Snapshot};
 
+/// One agent's desired (v_d, θ_d): speed (m/s) and heading (rad), before the saturator.
+pub type Desired = (f64, f64);
+
 impl World {
     /// The desired (v_d, θ_d) of every wolf and every target under the configured laws (before
     /// the saturator), as the next step would compute them. Lengths: N and M.
@@ -18,7 +21,7 @@ impl World {
     /// The laws' memories (a lost wolf's remembered direction, a running emergency) are the
     /// world's: they follow the episode only where the scripted law drove the side, or where
     /// [`World::track_laws`] is set. Allocates; meant for imitation, not the hot path.
-    pub fn expert_desired(&self) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    pub fn expert_desired(&self) -> (Vec<Desired>, Vec<Desired>) {
         let p = &*self.params;
         let (n, m) = (self.n_wolves(), self.n_targets());
         if self.is_done() {

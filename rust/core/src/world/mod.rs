@@ -8,6 +8,7 @@ mod spawn;
 mod expert;
 mod step;
 
+pub use expert::Desired;
 pub use layout::{Layout, LayoutObstacle};
 pub use memory::{DangerMemory, TargetMemory, WolfMemory};
 pub use near::{cull_distance, near, Near, Neighbours};

@@ -88,10 +88,8 @@ fn try_spawn(p: &Params, rng: &mut ChaCha8Rng) -> std::result::Result<Spawned, S
     let o = &p.obstacles;
     let d0 = p.world.init_clearance;
     let (sx0, sy0, sx1, sy1) = (x0 + 2.0, y0 + 2.0, x1 - 2.0, y1 - 2.0);
-    if sx0 >= sx1 || sy0 >= sy1 {
-        if o.total() > 0 {
-            return Err("arena shrunk by 2 m for obstacle centres is empty".into());
-        }
+    if (sx0 >= sx1 || sy0 >= sy1) && o.total() > 0 {
+        return Err("arena shrunk by 2 m for obstacle centres is empty".into());
     }
     let kinds = [("static circle", o.static_circles, false, false), ("moving circle", o.moving_circles, false, true), ("static polygon", o.static_polygons, true, false), ("moving polygon", o.moving_polygons, true, true)];
     let mut obstacles: Vec<Obstacle> = Vec::with_capacity(o.total());
