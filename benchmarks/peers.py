@@ -108,6 +108,29 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def cpu_caches(root: Path = Path("/sys/devices/system/cpu/cpu0/cache")) -> dict[str, int]:
+    """The first CPU's caches from Linux's sysfs, bytes by name ("L1d", "L1i", "L2", "L3"):
+    the size *one core* sees at each level (lscpu's totals add up the instances). Large batches
+    slow down where their worlds outgrow L2 and L3, so runs on two kinds of VM compare only
+    with these beside them. Empty where sysfs has no cache entries (not Linux, some VMs)."""
+    units = {"K": 1024, "M": 1024**2, "G": 1024**3}
+    out: dict[str, int] = {}
+    for index in sorted(root.glob("index[0-9]*")):
+        try:
+            level = (index / "level").read_text(encoding="ascii").strip()
+            kind = (index / "type").read_text(encoding="ascii").strip()
+            size = (index / "size").read_text(encoding="ascii").strip()
+        except OSError:
+            continue
+        scale = units.get(size[-1:], 1)
+        digits = size[:-1] if size[-1:] in units else size
+        if not digits.isdigit():
+            continue
+        suffix = {"Data": "d", "Instruction": "i"}.get(kind, "")
+        out[f"L{level}{suffix}"] = int(digits) * scale
+    return out
+
+
 def usable_cores() -> int:
     try:
         return len(os.sched_getaffinity(0))
@@ -178,6 +201,7 @@ def machine_info() -> dict:
     return {
         "cpu": cpu_model(),
         "cores": usable_cores(),
+        "caches": cpu_caches(),
         "os": platform.platform(),
         "python": platform.python_version(),
         "load_average": loadavg(),
@@ -651,6 +675,14 @@ def size_ratios(row: dict, threads: list[int]) -> dict:
     return out
 
 
+def caches_text(caches: dict[str, int] | None) -> str:
+    """", caches L2 1 MiB, L3 32 MiB" (per core, from ``cpu_caches``), or "" when unknown."""
+    if not caches:
+        return ""
+    size = lambda b: f"{b // 1024**2} MiB" if b % 1024**2 == 0 else f"{b // 1024} KiB"  # noqa: E731
+    return ", caches " + ", ".join(f"{name} {size(b)}" for name, b in caches.items() if name in ("L2", "L3"))
+
+
 def tables(report: dict) -> str:
     m = report["machine"]
     threads = report["threads"]
@@ -658,7 +690,7 @@ def tables(report: dict) -> str:
     out = [
         f"date: {report['date']}; command: {report['command']}",
         *([f"note: {report['note']}"] if report.get("note") else []),
-        f"machine: {m['cpu']}, {m['cores']} cores, {m['os']}, Python {m['python']}",
+        f"machine: {m['cpu']}, {m['cores']} cores{caches_text(m.get('caches'))}, {m['os']}, Python {m['python']}",
         "packages: " + ", ".join(f"{k} {v}" for k, v in m["packages"].items() if v),
     ]
     src = m.get("wolfpack_source") or {}

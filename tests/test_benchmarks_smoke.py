@@ -136,3 +136,20 @@ def test_ratios_to_jaxmarl_pair_the_rates_of_each_round(monkeypatch) -> None:
     row["jaxmarl_loop"] = {"skipped": "jaxmarl is not installed"}
     r = peers.size_ratios(row, [1, 2])
     assert r["BatchEnv(2t) / JaxMARL best, each round"] == [] and r["BatchEnv(2t) / JaxMARL best, lowest round"] is None
+
+
+def test_cpu_caches_read_what_one_core_sees_from_sysfs(monkeypatch, tmp_path) -> None:
+    """A hand-made sysfs cache tree (Linux's layout: index*/level, type, size) of a 2-core VM
+    with 1 MiB L2 per core; an entry without a size and a malformed one are left out."""
+    peers = _peers_module(monkeypatch)
+    for index, (level, kind, size) in enumerate([("1", "Data", "32K"), ("1", "Instruction", "32K"), ("2", "Unified", "1024K"), ("3", "Unified", "32768K"), ("4", "Unified", "huge")]):
+        d = tmp_path / f"index{index}"
+        d.mkdir()
+        for name, text in (("level", level), ("type", kind), ("size", size)):
+            (d / name).write_text(text + "\n", encoding="ascii")
+    (tmp_path / "index9").mkdir()  # no files: skipped
+    (tmp_path / "uevent").write_text("", encoding="ascii")
+    caches = peers.cpu_caches(tmp_path)
+    assert caches == {"L1d": 32 * 1024, "L1i": 32 * 1024, "L2": 1024**2, "L3": 32 * 1024**2}
+    assert peers.caches_text(caches) == ", caches L2 1 MiB, L3 32 MiB"
+    assert peers.caches_text({}) == "" and peers.cpu_caches(tmp_path / "missing") == {}
