@@ -122,12 +122,12 @@ def cpu_caches(root: Path = Path("/sys/devices/system/cpu/cpu0/cache")) -> dict[
             size = (index / "size").read_text(encoding="ascii").strip()
         except OSError:
             continue
-        scale = units.get(size[-1:], 1)
-        digits = size[:-1] if size[-1:] in units else size
-        if not digits.isdigit():
+        unit = size[-1:]
+        number = size[:-1] if unit in units else size
+        if not number.isdigit():
             continue
         suffix = {"Data": "d", "Instruction": "i"}.get(kind, "")
-        out[f"L{level}{suffix}"] = int(digits) * scale
+        out[f"L{level}{suffix}"] = int(number) * units.get(unit, 1)
     return out
 
 
