@@ -141,6 +141,7 @@ def test_bvc_hunts_and_its_bad_parameters_are_named(cli):
         (RuntimeError("internal error in wolfpack core (please report): boom\nat line 3"), 3, "wolfpack: internal error in wolfpack core (please report): boom at line 3"),
         (ValueError("capture.count: too\nmany"), 2, "wolfpack: error: capture.count: too many"),
         (PermissionError(13, "Permission denied", "/root/x"), 1, "wolfpack: error: /root/x: Permission denied"),
+        (BrokenPipeError(32, "Broken pipe"), 1, "wolfpack: error: Broken pipe"),  # no file: no empty "::"
         (KeyboardInterrupt(), 130, "wolfpack: interrupted"),
     ],
 )

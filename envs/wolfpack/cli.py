@@ -760,8 +760,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         message = _one_line(e)
         sys.exit(_fail(EXIT_INTERNAL, message if message.startswith("internal error") else f"internal error: {message}"))
     except OSError as e:
-        where = f" {e.filename}" if e.filename else ""
-        sys.exit(_fail(EXIT_IO, f"error:{where}: {e.strerror or _one_line(e)}"))
+        where = f"{e.filename}: " if e.filename else ""
+        sys.exit(_fail(EXIT_IO, f"error: {where}{e.strerror or _one_line(e)}"))
     except KeyboardInterrupt as e:
         status = _fail(EXIT_INTERRUPTED, f"interrupted{getattr(e, 'detail', '')}")
         if entry and threading.current_thread() is threading.main_thread():
