@@ -11,7 +11,10 @@ Public entry points (docs/interface.md in the repository has the whole interface
 - :class:`BatchEnv` — the native batch itself.
 - :class:`Opponent` — what drives the side that does not learn: a law, an SB3 model or a
   callable (``opponent=`` of every env; :mod:`wolfpack.opponents`).
-- ``wolfpack`` command line: ``wolfpack hunt --help``.
+- :func:`load_policy` — any saved model (``wolfpack train``'s or SB3's) as a batched callable
+  ``obs [n, D] -> actions [n, 2]`` (:mod:`wolfpack.models`).
+- :mod:`wolfpack.learn` — the native PPO trainer (IPPO, MAPPO) behind ``wolfpack train``.
+- ``wolfpack`` command line: ``wolfpack hunt --help``, ``wolfpack train --help``.
 """
 
 from wolfpack._core import __version__
@@ -19,6 +22,7 @@ from wolfpack.config import DEFAULT_PARAMS_PATH, load_params, load_layout
 from wolfpack.episodes import run_episodes, summarize
 from wolfpack.batch import OUTCOMES, BatchEnv
 from wolfpack.opponents import Opponent
+from wolfpack.models import load_policy
 from wolfpack.parallel_env import env, parallel_env
 
 
@@ -62,6 +66,7 @@ __all__ = [
     "summarize",
     "BatchEnv",
     "Opponent",
+    "load_policy",
     "OUTCOMES",
     "parallel_env",
     "env",

@@ -158,6 +158,17 @@ def _int_at_least(lo: int, hi: int | None = None) -> Callable[[str], int]:
     return parse
 
 
+def _positive_minutes(text: str) -> float:
+    """A time limit in minutes: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of minutes, got {text!r}") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a number of minutes > 0, got {text!r}")
+    return value
+
+
 def _folder(text: str) -> str:
     """A path argument that must name something: ``--out ''`` is an error, not "no --out"."""
     if not text.strip():
@@ -170,10 +181,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help' or 'wolfpack bench --help' for details.",
+        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help' or 'wolfpack train --help' for details.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train}", parser_class=_Parser)
 
     hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
                           description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -223,6 +234,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--batch-steps", metavar="T", type=_int_at_least(1), default=300, help="steps of the native batch per measurement (default: 300)")
     bench.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
     bench.set_defaults(func=cmd_bench)
+
+    from wolfpack.learn.cli import add_parser as add_train
+
+    add_train(sub, _Parser)
     return parser
 
 

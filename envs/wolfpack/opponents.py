@@ -6,6 +6,9 @@ takes ``opponent=``, one of
 - **a scripted law by name**: wolves ``"seed000"``, ``"bvc"``, ``"formation"``; targets
   ``"escape"``, ``"random"``, ``"still"``. It runs inside the core, exactly as ``policies.*``
   in params does (the name sets that key);
+- **a model of the native trainer** (``wolfpack train``): its run folder, or one side's model
+  folder in it (``RUN/targets``); a run in which both sides learned needs ``side=`` (or the
+  side's folder), as it holds a model of each (:mod:`wolfpack.models`);
 - **a saved Stable-Baselines3 model**: the path of a ``.zip`` or of a run folder of
   ``training/`` (``model.zip`` + ``config.yaml``; a checkpoint's run folder is its zip's parent
   or grandparent), or a loaded model (``BaseAlgorithm``) or policy (``BasePolicy``);
@@ -57,6 +60,13 @@ def side_action_mode(params: dict, side: str) -> str:
 
 def _law_side(name: str) -> str | None:
     return next((side for side, laws in SCRIPTED_LAWS.items() if name in laws), None)
+
+
+def _is_native(where: str | Path) -> bool:
+    """Whether ``where`` holds a model of the native trainer (``wolfpack train``)."""
+    from wolfpack.models import native_model_folders
+
+    return bool(native_model_folders(where))
 
 
 def find_model(where: str | Path) -> tuple[Path, Path | None]:
@@ -159,6 +169,16 @@ class Opponent:
             if side is not None and side != law_side:
                 raise ValueError(f"opponent {policy!r} is a law of the {law_side}, not of the {side}")
             side, label = law_side, policy
+        elif isinstance(policy, (str, Path)) and _is_native(policy):
+            from wolfpack.models import load_policy
+
+            self.kind = "model"
+            self.model = load_policy(policy, side)
+            self.config = self.model.config
+            side = self.model.side
+            if mode is None:
+                mode = self.model.action_mode
+            label = self.model.name
         elif isinstance(policy, (str, Path)):
             self.kind = "model"
             try:
@@ -239,6 +259,8 @@ class Opponent:
         (torch's global one would tie the opponent to the learner's random stream): Gaussian
         policies (PPO, A2C) mean + σ·ε, clipped to [-1, 1] as SB3 does; SAC's squashed
         Gaussian tanh(mean + σ·ε)."""
+        if hasattr(self.model, "act") and hasattr(self.model, "obs_dim"):  # a wolfpack.models.SavedPolicy
+            return self.model.act(obs, deterministic=False, rng=self._rng)
         import torch
 
         policy = getattr(self.model, "policy", self.model)

@@ -1,0 +1,27 @@
+"""The native multi-agent PPO trainer behind ``wolfpack train`` (IPPO and MAPPO on the batch).
+
+Written for the batch rather than on a general library because the learner, not the simulator,
+is what users wait for: SB3's PPO spends 87 % of its time in its own bookkeeping and updates
+around one policy per VecEnv slot, and has no centralised critic; here every side is one
+parameter-shared policy over preallocated rollout buffers filled straight from
+:class:`wolfpack.BatchEnv` (BENCHMARKS.md, "Learning"). Modules: :mod:`~wolfpack.learn.nets`
+(normaliser, actor, critic), :mod:`~wolfpack.learn.ppo` (one side's rollout and update),
+:mod:`~wolfpack.learn.trainer` (the loop, logs, checkpoints), :mod:`~wolfpack.learn.recipes`
+(the hyperparameters), :mod:`~wolfpack.learn.cli` (``wolfpack train``). Saved models load
+with :func:`wolfpack.load_policy`.
+
+Importing this package does not import torch; :func:`train` does.
+"""
+
+from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe
+
+
+def train(learners: str = "wolves", algo: str = "mappo", *, out, time_limit_min=None, timesteps=None, seed: int = 0, params=None, overrides=None, hp=None, opponent=None, device: str = "auto", threads=None, torch_threads=None, eval_episodes: int = 100, resume: bool = False, progress: bool = True) -> dict:
+    """Trains as ``wolfpack train`` does (``wolfpack train --help``) and returns the run's
+    summary; ``overrides`` and ``hp`` are dicts of dotted keys."""
+    from wolfpack.learn.cli import run_training
+
+    return run_training(learners=learners, algo=algo, out=out, time_limit_min=time_limit_min, timesteps=timesteps, seed=seed, params=params, overrides=overrides or {}, hp=hp or {}, opponent=opponent, device=device, threads=threads, torch_threads=torch_threads, eval_episodes=eval_episodes, resume=resume, progress=progress, command="")
+
+
+__all__ = ["ALGOS", "LEARNERS", "recipe", "train"]

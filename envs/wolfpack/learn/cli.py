@@ -1,0 +1,200 @@
+"""``wolfpack train``: the native trainer's command line (registered by :mod:`wolfpack.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shlex
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe
+
+DEVICES = ("auto", "cpu", "cuda")
+
+TRAIN_DESCRIPTION = """\
+Train wolves, targets or both sides at once with PPO on the native batch.
+
+--algo ippo: every agent of a side shares one actor and one critic that both read the agent's
+own observation (independent PPO with parameter sharing). --algo mappo (default): the same
+actor, and a centralised critic that reads the world's global state (BatchEnv.state()) with
+the agent's own observation. --side both: wolves and targets learn together in the same
+worlds, each side with its own networks and optimiser; otherwise the other side follows
+--opponent (a law's name or a saved model; default: its law in params).
+
+Hyperparameters: the packaged recipes (wolfpack/learn/recipes.yaml; one per side and
+algorithm, the defaults measured best), each key changed with --hp KEY=VALUE. Observations
+and returns are normalised by running statistics saved with the model; the policy is a Gaussian
+whose draws the environment clips to the action box.
+
+A budget is needed: --time-limit MINUTES (wall clock of this invocation) and/or --timesteps
+(agent-steps in all; one batch step of E worlds with N learning wolves is E*N agent-steps);
+training stops at whichever comes first, and the learning rate anneals over it. Held-out
+evaluations (deterministic, episodes 500000 + k, never trained on) run at every tenth of the
+budget and at the end; checkpoints at every fifth. A --timesteps run is bit-identical when
+rerun on the CPU with the same seed and thread counts; a --time-limit run stops where the clock
+says.
+
+Writes into --out DIR (a new or empty folder; --resume continues the run there):
+  config.yaml                  the run: sides, algorithm, opponent, params, recipes, command
+  wolves/, targets/            each learning side's model: policy.pt + config.yaml; any
+                               model path takes it (opponent=DIR, wolfpack.load_policy(DIR),
+                               training/evaluate.py DIR)
+  progress.csv                 one row per update: wall_s, agent_steps, agent_steps_per_s,
+                               outcome rates, per side return, losses, entropy, KL, and the
+                               held-out evaluations; TensorBoard events beside it
+  evaluations.json             every held-out evaluation
+  checkpoints/<agent steps>/   models and resume state; trainer.pt the latest state
+  summary.json                 agent steps, wall time, throughput, the final evaluation
+Ctrl-C saves the models as they are and exits with status 130."""
+
+TRAIN_EPILOG = """\
+examples:
+  wolfpack train --side wolves --time-limit 15 --out runs/wolves
+  wolfpack train --side targets --algo ippo --opponent bvc --time-limit 10 --out runs/escape
+  wolfpack train --side both --timesteps 20000000 --seed 3 --out runs/both
+  wolfpack train --side wolves --out runs/wolves --resume --time-limit 15"""
+
+
+def add_parser(sub, parser_class) -> argparse.ArgumentParser:
+    """Registers ``train`` on the ``wolfpack`` command's subparsers."""
+    from wolfpack.cli import _folder, _int_at_least, _positive_minutes
+
+    p = sub.add_parser("train", help="train wolves, targets or both with PPO (IPPO or MAPPO) on the native batch",
+                       description=TRAIN_DESCRIPTION, epilog=TRAIN_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--side", required=True, choices=LEARNERS, help="which side learns (both: both sides at once)")
+    p.add_argument("--algo", choices=ALGOS, default="mappo", help="ippo (decentralised critic) or mappo (centralised critic on the global state; default)")
+    p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="run folder (new or empty, or the run to --resume)")
+    p.add_argument("--time-limit", metavar="MIN", type=_positive_minutes, default=None, help="stop after this many minutes of this invocation")
+    p.add_argument("--timesteps", metavar="N", type=_int_at_least(1), default=None, help="stop after this many agent-steps in all")
+    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds (default 0)")
+    p.add_argument("--opponent", metavar="LAW_OR_MODEL", default=None, help="what drives the other side: a law (seed000, bvc, formation / escape, random, still) or a saved model (default: its law in params)")
+    p.add_argument("--params", metavar="P", default=None, help="scenario YAML (default: the packaged params.yaml)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="params override, e.g. --set world.wolves=8 (repeatable)")
+    p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
+    p.add_argument("--device", choices=DEVICES, default="auto", help="where the networks run: auto (CUDA when present), cpu or cuda; the worlds always step on the CPU")
+    p.add_argument("--threads", metavar="T", type=_int_at_least(1, 256), default=None, help="the batch's worker threads (default: the recipe's choice for this machine, see --help's text)")
+    p.add_argument("--torch-threads", metavar="T", type=_int_at_least(1, 256), default=None, help="torch's threads (default: all cores; the batch and torch take turns, never run together)")
+    p.add_argument("--eval-episodes", metavar="K", type=_int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest state (its configuration must match)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_train)
+    return p
+
+
+def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
+    from wolfpack import config
+
+    overrides = dict(config.parse_override(text) for text in args.overrides)
+    hp = dict(config.parse_override(text) for text in args.hp)
+    summary = run_training(
+        learners=args.side, algo=args.algo, out=args.out, time_limit_min=args.time_limit, timesteps=args.timesteps, seed=args.seed,
+        params=args.params, overrides=overrides, hp=hp, opponent=args.opponent, device=args.device, threads=args.threads,
+        torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, resume=args.resume, progress=not args.no_progress,
+        command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
+    )
+    final = summary.get("final_evaluation") or {}
+    rate = summary["this_invocation"]["agent_steps_per_s"] or 0
+    line = f"{summary['learners']} {summary['algo']}: {summary['agent_steps']:,} agent-steps, {summary['train_s'] / 60:.1f} min, {rate / 1000:.0f}k agent-steps/s"
+    for side in ("wolves", "targets"):
+        if side in final:
+            r = final[side]
+            shown = "capture" if side == "wolves" else "survival"
+            value = r["capture_rate"] if side == "wolves" else r["survival_rate"]
+            line += f"; held-out {side} {shown} {100 * value:.1f} % (collisions {100 * r['collision_rate']:.1f} %)"
+    print(line + f"; models in {args.out}")
+
+
+def default_threads() -> tuple[int, int]:
+    """(batch threads, torch threads) when not given: every usable core for both. The batch and
+    torch take turns (a rollout step, then a forward pass; the update alone), so they never
+    compete for the cores (BENCHMARKS.md, "Learning", measured the alternatives)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return cores, cores
+
+
+def resolve_device(device: str):
+    import torch
+
+    if device not in DEVICES:
+        raise ValueError(f"--device must be one of {', '.join(DEVICES)}, got {device!r}")
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ValueError("--device cuda: no CUDA device here (torch.cuda.is_available() is False); use --device cpu or auto")
+    if device == "auto":
+        device = "cuda" if torch.cuda.is_available() else "cpu"
+    return device
+
+
+def prepare_out(out: Path, resume: bool, identity: dict) -> None:
+    """A new or empty ``out``; with ``resume``, a run folder of the same configuration. Nothing
+    is written before this passes."""
+    from wolfpack.opponents import CONFIG_FILE
+
+    config_path = out / CONFIG_FILE
+    if resume:
+        if not config_path.is_file():
+            raise ValueError(f"--resume: {out} holds no run of 'wolfpack train' (no {CONFIG_FILE})")
+        import yaml
+
+        theirs = yaml.safe_load(config_path.read_text()) or {}
+        mine = json.loads(json.dumps(identity))
+        for key, value in mine.items():
+            if theirs.get(key) != value:
+                raise ValueError(f"--resume: {out} is a run with another {key} ({_short(theirs.get(key))} there, {_short(value)} here); resume it with the same arguments, or use another --out")
+        return
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ValueError(f"--out {out}: not a new or empty folder (continue a run there with --resume)")
+
+
+def _short(v: Any) -> str:
+    text = json.dumps(v)
+    return text if len(text) <= 40 else "different values"
+
+
+def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, opponent, device: str,
+                 threads, torch_threads, eval_episodes: int, resume: bool, progress: bool, command: str) -> dict:
+    """Checks every input (ValueError naming it, nothing written), then trains."""
+    if learners not in LEARNERS:
+        raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
+    if algo not in ALGOS:
+        raise ValueError(f"--algo must be one of {', '.join(ALGOS)}, got {algo!r}")
+    if time_limit_min is None and timesteps is None:
+        raise ValueError("give a budget: --time-limit MINUTES and/or --timesteps N")
+    if time_limit_min is not None and not (time_limit_min > 0):
+        raise ValueError(f"--time-limit must be > 0 minutes, got {time_limit_min}")
+    if opponent is not None and learners == "both":
+        raise ValueError("--opponent: with --side both there is no other side for it to drive")
+    try:
+        import torch
+    except ImportError:
+        raise ValueError("wolfpack train needs torch: pip install 'wolfpack[train]'") from None
+    from wolfpack.batch import resolve_params
+    from wolfpack.learn.trainer import Trainer, TrainSpec
+
+    device = resolve_device(device)
+    resolved = resolve_params(params, overrides)
+    sides = ("wolves", "targets") if learners == "both" else (learners,)
+    recipes = {side: recipe(side, algo, hp) for side in sides}
+    cores_env, cores_torch = default_threads()
+    spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=str(opponent) if opponent is not None else None,
+                     timesteps=timesteps, time_limit_min=time_limit_min, threads=threads or cores_env, torch_threads=torch_threads or cores_torch,
+                     device=device, eval_episodes=eval_episodes, command=command)
+    out = Path(out)
+    prepare_out(out, resume, spec.identity())
+    torch.set_num_threads(spec.torch_threads)
+    # Building the trainer builds the batch and loads the opponent: a model of the wrong side or
+    # observation size fails here, before anything is written.
+    trainer = Trainer(spec, out, resume=resume, progress=progress)
+    if not resume:
+        import yaml
+
+        from wolfpack.learn.trainer import _plain, versions
+        from wolfpack.opponents import CONFIG_FILE
+
+        out.mkdir(parents=True, exist_ok=True)
+        config = {**spec.identity(), "trainer": "wolfpack train", "timesteps": timesteps, "time_limit_min": time_limit_min, "threads": spec.threads,
+                  "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "command": command, "versions": versions()}
+        (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
+    return trainer.run()

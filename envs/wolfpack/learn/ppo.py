@@ -1,0 +1,221 @@
+"""PPO for one side of the batch: parameter-shared actor and critic, a preallocated rollout,
+GAE and the clipped update.
+
+One :class:`SideLearner` per learning side; when both sides learn, each has its own networks,
+optimiser and statistics and they share only the batch. All agents of a side share the
+networks (IPPO with parameter sharing; MAPPO when the critic reads the global state).
+
+Episodes end on capture, collision (both terminal) or at ``world.max_steps`` (truncated). The
+observation and the state both carry the clock (t / max_steps), so the task is time-aware and
+the truncation is a true end of the episode for the critic as well: no value is bootstrapped
+across it (Pardo et al., "Time limits in reinforcement learning", 2018). That also spares the
+learner the final observations of autoreset worlds.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from wolfpack.learn.nets import LOG_2PI, Actor, Critic, RunningNorm
+
+
+class SideLearner:
+    """The learner of one side (``"wolves"`` or ``"targets"``) on ``num_envs`` worlds with
+    ``agents`` agents each, collecting ``n_steps`` steps per update.
+
+    Buffers (on ``device``, allocated once): normalised observations [T, E, K, D], normalised
+    states [T, E, S] (MAPPO), raw actions [T, E, K, 2], their log-probabilities, values and
+    rewards [T, E, K], episode ends [T, E]."""
+
+    def __init__(self, side: str, algo: str, recipe: dict, *, obs_dim: int, state_dim: int, agents: int, num_envs: int, device: torch.device, generator: torch.Generator) -> None:
+        self.side, self.algo, self.recipe, self.device, self.gen = side, algo, recipe, device, generator
+        self.agents, self.num_envs, self.n_steps = agents, num_envs, int(recipe["n_steps"])
+        centralised = algo == "mappo"
+        self.network = dict(obs_dim=obs_dim, agents=agents, hidden=list(recipe["hidden"]), activation=recipe["activation"], log_std_init=float(recipe["log_std_init"]), agent_id=bool(recipe["agent_id"]), norm_obs=bool(recipe["norm_obs"]))
+        self.actor = Actor(**self.network).to(device)
+        self.critic = Critic(obs_dim, state_dim if centralised else 0, agents, list(recipe["hidden"]), recipe["activation"], bool(recipe["agent_id"]), bool(recipe["norm_obs"])).to(device)
+        self.params = [*self.actor.parameters(), *self.critic.parameters()]
+        self.optimizer = torch.optim.Adam(self.params, lr=float(recipe["learning_rate"]), eps=1e-5)
+        # Return normalisation: the running variance of each agent's discounted return.
+        self.return_norm = RunningNorm(1, enabled=bool(recipe["norm_reward"]))
+        self._discounted = torch.zeros(num_envs, agents, dtype=torch.float64)
+        T, E, K = self.n_steps, num_envs, agents
+        zeros = lambda *shape: torch.zeros(*shape, device=device)  # noqa: E731
+        self.obs = zeros(T, E, K, obs_dim)
+        self.state = zeros(T, E, state_dim) if centralised else None
+        self.actions = zeros(T, E, K, 2)
+        self.logp = zeros(T, E, K)
+        self.values = zeros(T, E, K)
+        self.rewards = zeros(T, E, K)
+        self.dones = zeros(T, E)
+        self.advantages = zeros(T, E, K)
+        self.returns = zeros(T, E, K)
+        self._noise = zeros(E, K, 2)
+        self._actions_out = torch.zeros(E, K, 2)  # on the CPU, what the batch reads
+
+    # --- the rollout ----------------------------------------------------------------------------
+
+    @staticmethod
+    def _normalise_into(norm: RunningNorm, raw: np.ndarray, out: torch.Tensor, count: bool = True) -> None:
+        out.copy_(torch.from_numpy(raw))  # the one copy: the batch's array into the buffer (and onto the device)
+        if count:
+            norm.accumulate(out)
+        if norm.enabled:
+            out.sub_(norm.shift).mul_(norm.scale).clamp_(-norm.clip, norm.clip)
+
+    @torch.no_grad()
+    def act(self, t: int, obs: np.ndarray, state: np.ndarray | None) -> np.ndarray:
+        """Step ``t``'s actions for the batch's observations ``obs`` [E, K, D] (and its state
+        [E, S], MAPPO): a draw from the policy, stored with its log-probability and value.
+        Returns the clipped actions as float32 [E, K, 2], a view of a buffer reused every step."""
+        o = self.obs[t]
+        self._normalise_into(self.actor.norm, obs, o)
+        s = None
+        if self.state is not None:
+            s = self.state[t]
+            self._normalise_into(self.critic.state_norm, state, s)
+        mean = self.actor.mean(o)
+        torch.randn(self._noise.shape, generator=self.gen, device=self.device, out=self._noise)
+        log_std = self.actor.log_std
+        a = self.actions[t]
+        torch.addcmul(mean, self._noise, log_std.exp(), out=a)
+        self.logp[t] = -(0.5 * self._noise * self._noise + log_std + 0.5 * LOG_2PI).sum(-1)
+        self.values[t] = self.critic(self.critic.inputs(o, s))
+        self._actions_out.copy_(a.clamp(-1.0, 1.0))
+        return self._actions_out.numpy()
+
+    def record(self, t: int, rewards: np.ndarray, dones: torch.Tensor) -> None:
+        """Step ``t``'s rewards [E, K] and episode ends [E] (bool, on the CPU)."""
+        r = torch.from_numpy(rewards)
+        self.rewards[t].copy_(r)
+        self.dones[t].copy_(dones)
+        if self.return_norm.enabled:
+            self._discounted.mul_(float(self.recipe["gamma"])).add_(r)
+            self.return_norm.accumulate(self._discounted.reshape(-1, 1))
+            self._discounted[dones] = 0.0
+
+    @torch.no_grad()
+    def finish_rollout(self, obs: np.ndarray, state: np.ndarray | None) -> None:
+        """Bootstraps from the observations after the last step, scales the rewards, computes
+        GAE advantages and returns, and merges the rollout's normalisation statistics."""
+        o = torch.empty_like(self.obs[0])
+        self._normalise_into(self.actor.norm, obs, o, count=False)  # counted as the next rollout's first step
+        s = None
+        if self.state is not None:
+            s = torch.empty_like(self.state[0])
+            self._normalise_into(self.critic.state_norm, state, s, count=False)
+        last_value = self.critic(self.critic.inputs(o, s))
+        self.return_norm.commit()
+        if self.return_norm.enabled:
+            self.rewards.mul_(self.return_norm.scale[0])
+        gamma, lam = float(self.recipe["gamma"]), float(self.recipe["gae_lambda"])
+        gae = torch.zeros_like(last_value)
+        for t in reversed(range(self.n_steps)):
+            alive = (1.0 - self.dones[t]).unsqueeze(-1)
+            next_value = last_value if t == self.n_steps - 1 else self.values[t + 1]
+            delta = self.rewards[t] + gamma * next_value * alive - self.values[t]
+            gae = delta + gamma * lam * alive * gae
+            self.advantages[t] = gae
+        torch.add(self.advantages, self.values, out=self.returns)
+        self.actor.norm.commit()
+        if self.critic.state_norm is not None:
+            self.critic.state_norm.commit()
+
+    # --- the update ------------------------------------------------------------------------------
+
+    def set_learning_rate(self, lr: float) -> None:
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+
+    def update(self) -> dict[str, float]:
+        """PPO's clipped update over the rollout: ``epochs`` passes of shuffled minibatches.
+        Returns the mean losses, entropy, approximate KL, clip fraction and explained
+        variance."""
+        rc = self.recipe
+        clip, clip_v = float(rc["clip"]), rc["clip_value"]
+        ent_coef, vf_coef, max_norm = float(rc["ent_coef"]), float(rc["vf_coef"]), float(rc["max_grad_norm"])
+        target_kl = rc["target_kl"]
+        with torch.no_grad():
+            actor_in = self.actor.inputs(self.obs).reshape(-1, self.actor.body[0].in_features)
+            critic_in = self.critic.inputs(self.obs, self.state).reshape(-1, self.critic.body[0].in_features)
+        actions, old_logp = self.actions.reshape(-1, 2), self.logp.reshape(-1)
+        adv, ret, old_v = self.advantages.reshape(-1), self.returns.reshape(-1), self.values.reshape(-1)
+        n = adv.shape[0]
+        mb = min(int(rc["minibatch_size"]), n)
+        sums = dict(policy_loss=0.0, value_loss=0.0, entropy=0.0, approx_kl=0.0, clip_fraction=0.0)
+        steps = 0
+        stop = False
+        for _ in range(int(rc["epochs"])):
+            order = torch.randperm(n, generator=self.gen, device=self.device)
+            for lo in range(0, n - mb + 1, mb):
+                idx = order[lo : lo + mb]
+                mean = self.actor.body(actor_in[idx])
+                logp = self.actor.log_prob(mean, actions[idx])
+                log_ratio = logp - old_logp[idx]
+                ratio = log_ratio.exp()
+                a = adv[idx]
+                a = (a - a.mean()) / (a.std() + 1e-8)
+                policy_loss = torch.max(-a * ratio, -a * ratio.clamp(1 - clip, 1 + clip)).mean()
+                v = self.critic(critic_in[idx])
+                if clip_v is not None:
+                    v_clipped = old_v[idx] + (v - old_v[idx]).clamp(-float(clip_v), float(clip_v))
+                    value_loss = 0.5 * torch.max((v - ret[idx]) ** 2, (v_clipped - ret[idx]) ** 2).mean()
+                else:
+                    value_loss = 0.5 * ((v - ret[idx]) ** 2).mean()
+                entropy = self.actor.entropy()
+                loss = policy_loss - ent_coef * entropy + vf_coef * value_loss
+                self.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                nn.utils.clip_grad_norm_(self.params, max_norm)
+                self.optimizer.step()
+                with torch.no_grad():
+                    kl = ((ratio - 1) - log_ratio).mean().item()
+                    sums["policy_loss"] += policy_loss.item()
+                    sums["value_loss"] += value_loss.item()
+                    sums["entropy"] += entropy.item()
+                    sums["approx_kl"] += kl
+                    sums["clip_fraction"] += ((ratio - 1).abs() > clip).float().mean().item()
+                steps += 1
+                if target_kl is not None and kl > 1.5 * float(target_kl):
+                    stop = True
+                    break
+            if stop:
+                break
+        stats = {k: v / max(steps, 1) for k, v in sums.items()}
+        var = ret.var()
+        stats["explained_variance"] = float(1 - (ret - old_v).var() / var) if var > 0 else float("nan")
+        stats["gradient_steps"] = steps
+        return stats
+
+    # --- state for checkpoints -------------------------------------------------------------------
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            "actor": self.actor.state_dict(),
+            "critic": self.critic.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "return_norm": self.return_norm.state_dict(),
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.actor.load_state_dict(state["actor"])
+        self.critic.load_state_dict(state["critic"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.return_norm.load_state_dict(state["return_norm"])
+
+    @torch.no_grad()
+    def policy(self, deterministic: bool = True):
+        """The current policy as a numpy callable ``obs [..., D] -> actions [..., 2]`` (the
+        clipped mean), for evaluations during training."""
+
+        def act(obs: np.ndarray) -> np.ndarray:
+            x = torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32)).to(self.device)
+            with torch.no_grad():
+                mean = self.actor.mean(self.actor.norm(x.reshape(-1, x.shape[-1])))
+            return mean.clamp(-1.0, 1.0).cpu().numpy().reshape(*obs.shape[:-1], 2)
+
+        return act

@@ -1,0 +1,53 @@
+"""The trainer's hyperparameter recipes (``recipes.yaml`` beside this file): one per side and
+algorithm, ``default`` with the ``<side>.<algo>`` section on top, then a run's overrides."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+RECIPES_PATH = Path(__file__).with_name("recipes.yaml")
+LEARNERS = ("wolves", "targets", "both")
+ALGOS = ("ippo", "mappo")
+
+
+def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> dict:
+    """The recipe of ``side`` (``wolves`` or ``targets``) and ``algo``, with ``overrides`` (keys
+    of the recipe; a key it does not have is a ValueError listing the known ones)."""
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algorithm {algo!r}: one of {', '.join(ALGOS)}")
+    table = yaml.safe_load(RECIPES_PATH.read_text())
+    r = dict(table["default"])
+    r.update((table.get(side) or {}).get(algo) or {})
+    for key, value in (overrides or {}).items():
+        if key not in r:
+            raise ValueError(f"--hp {key}: no such hyperparameter (known: {', '.join(sorted(r))})")
+        r[key] = value
+    _check(r)
+    return r
+
+
+def _check(r: dict) -> None:
+    """Each value of the right kind and range; ValueError naming the key."""
+    def need(key: str, ok: bool, what: str) -> None:
+        if not ok:
+            raise ValueError(f"--hp {key}: must be {what}, got {r[key]!r}")
+
+    is_num = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)  # noqa: E731
+    for key in ("num_envs", "n_steps", "epochs", "minibatch_size"):
+        need(key, isinstance(r[key], int) and not isinstance(r[key], bool) and r[key] >= 1, "an integer >= 1")
+    for key in ("learning_rate", "max_grad_norm", "clip"):
+        need(key, is_num(r[key]) and r[key] > 0, "a number > 0")
+    for key in ("gamma", "gae_lambda"):
+        need(key, is_num(r[key]) and 0 <= r[key] <= 1, "a number in [0, 1]")
+    for key in ("ent_coef", "vf_coef"):
+        need(key, is_num(r[key]) and r[key] >= 0, "a number >= 0")
+    for key in ("clip_value", "target_kl"):
+        need(key, r[key] is None or (is_num(r[key]) and r[key] > 0), "null or a number > 0")
+    need("log_std_init", is_num(r["log_std_init"]), "a number")
+    need("hidden", isinstance(r["hidden"], list) and len(r["hidden"]) >= 1 and all(isinstance(h, int) and not isinstance(h, bool) and h >= 1 for h in r["hidden"]), "a list of layer widths, e.g. [64, 64]")
+    need("activation", r["activation"] in ("tanh", "relu"), "'tanh' or 'relu'")
+    for key in ("anneal_lr", "agent_id", "norm_obs", "norm_reward"):
+        need(key, isinstance(r[key], bool), "true or false")

@@ -1,0 +1,410 @@
+"""The training loop of ``wolfpack train``: the batch, one :class:`SideLearner` per learning
+side, the budget, evaluations, checkpoints, logs and resuming.
+
+A run folder (``--out DIR``):
+
+=================================  ===========================================================
+``config.yaml``                    what the run is: sides, algorithm, opponent, the exact
+                                   params, each side's recipe, seed, threads, device, command,
+                                   versions; written first (``--resume`` checks against it)
+``wolves/``, ``targets/``          the model of each learning side (``policy.pt`` +
+                                   ``config.yaml``): ``opponent=DIR``, ``wolfpack.load_policy``
+                                   and ``training/evaluate.py DIR`` read them
+``trainer.pt``                     everything ``--resume`` needs (networks, optimisers,
+                                   normalisers, random generator, counters)
+``checkpoints/<agent steps>/``     the same, at the checkpoint cadence
+``progress.csv``                   one row per update (columns: :data:`BASE_COLUMNS`, then per
+                                   side :data:`SIDE_COLUMNS`, then the held-out evaluations)
+``events.out.tfevents.*``          the same as TensorBoard scalars
+``evaluations.json``               every held-out evaluation (wolfpack.evaluation.report rows)
+``summary.json``                   the outcome of the run, written when it ends
+=================================  ===========================================================
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import platform
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+
+import wolfpack
+from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
+from wolfpack.learn.ppo import SideLearner
+from wolfpack.models import POLICY_FILE
+from wolfpack.opponents import CONFIG_FILE, SIDES, Opponent, as_opponent, opponent_side
+
+TRAINER_FILE = "trainer.pt"
+BASE_COLUMNS = ("update", "wall_s", "agent_steps", "agent_steps_per_s", "rollout_s", "update_s", "episodes", "captured_rate", "collision_rate", "timeout_rate", "cornered_rate")
+SIDE_COLUMNS = ("return", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "explained_variance", "learning_rate")
+EVAL_COLUMNS = ("capture_rate", "collision_rate", "median_capture_steps")
+CAPTURED, COLLISION, TIMEOUT, CORNERED = (OUTCOMES.index(k) for k in ("captured", "collision", "timeout", "cornered"))
+
+
+@dataclass
+class TrainSpec:
+    """What a run trains: ``learners`` (``wolves``, ``targets`` or ``both``), ``algo``
+    (``ippo`` or ``mappo``), the validated ``params``, each learning side's ``recipes``, the
+    ``opponent`` of a one-sided run (None: the params' law), and how it runs."""
+
+    learners: str
+    algo: str
+    params: dict
+    recipes: dict[str, dict]
+    seed: int = 0
+    opponent: str | None = None
+    timesteps: int | None = None
+    time_limit_min: float | None = None
+    threads: int | None = None
+    torch_threads: int | None = None
+    device: str = "cpu"
+    eval_episodes: int = 100
+    command: str = ""
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def sides(self) -> tuple[str, ...]:
+        return SIDES if self.learners == "both" else (self.learners,)
+
+    def identity(self) -> dict:
+        """What must match for ``--resume`` to continue a run: the sides, algorithm, opponent,
+        params, recipes and seed."""
+        return {"learners": self.learners, "algo": self.algo, "opponent": self.opponent, "params": self.params, "recipes": self.recipes, "seed": self.seed}
+
+
+def versions() -> dict:
+    return {"wolfpack": wolfpack.__version__, "torch": str(torch.__version__), "numpy": np.__version__, "python": sys.version.split()[0], "machine": f"{platform.machine()} {platform.processor() or ''}".strip()}
+
+
+def _plain(x: Any) -> Any:
+    return json.loads(json.dumps(x))
+
+
+class Trainer:
+    """Runs a :class:`TrainSpec` into ``out`` (a new or empty folder, or with ``resume`` a folder
+    of the same run)."""
+
+    def __init__(self, spec: TrainSpec, out: Path, *, resume: bool = False, progress: bool = True) -> None:
+        self.spec, self.out, self.progress = spec, Path(out), progress
+        self.device = torch.device(spec.device)
+        wolves_recipe = spec.recipes[spec.sides[0]]
+        self.num_envs, self.n_steps = int(wolves_recipe["num_envs"]), int(wolves_recipe["n_steps"])
+        for side in spec.sides:  # the batch's keys are shared; the per-side recipes must agree
+            spec.recipes[side]["num_envs"], spec.recipes[side]["n_steps"] = self.num_envs, self.n_steps
+        self.generator = torch.Generator(device=self.device)
+        self.generator.manual_seed(spec.seed)
+        torch.manual_seed(spec.seed)  # network initialisation
+        self.updates = 0
+        self.agent_steps = 0
+        self.train_s_before = 0.0  # training seconds of earlier invocations (resume)
+        self.resumes = 0
+        state = self._load_resume_state() if resume else None
+        if state is not None:
+            self.resumes = int(state["resumes"]) + 1
+        learners = "all" if spec.learners == "both" else spec.learners
+        opponent = self._opponent()
+        world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
+        self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent)
+        self.learners: dict[str, SideLearner] = {}
+        for side in spec.sides:
+            self.learners[side] = SideLearner(
+                side, spec.algo, spec.recipes[side],
+                obs_dim=self.env.wolf_obs_dim if side == "wolves" else self.env.target_obs_dim,
+                state_dim=self.env.state_dim,
+                agents=self.env.n_wolves if side == "wolves" else self.env.n_targets,
+                num_envs=self.num_envs, device=self.device, generator=self.generator,
+            )
+        if state is not None:
+            self._restore(state)
+        self.agents_per_step = self.num_envs * sum(l.agents for l in self.learners.values())
+        self.evaluations: list[dict] = json.loads((self.out / "evaluations.json").read_text()) if resume and (self.out / "evaluations.json").is_file() else []
+
+    # --- set-up -----------------------------------------------------------------------------------
+
+    def _opponent(self) -> Opponent | None:
+        if self.spec.opponent is None:
+            return None
+        opp = as_opponent(self.spec.opponent)
+        opponent_side(opp, self.spec.learners)  # a ValueError when it would drive a learning side
+        return opp
+
+    def _load_resume_state(self) -> dict | None:
+        candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
+        states = [torch.load(p, map_location=self.device, weights_only=False) for p in candidates if p.is_file()]
+        if not states:
+            raise ValueError(f"--resume: {self.out} holds no {TRAINER_FILE} to resume from (the run never reached its first checkpoint)")
+        return max(states, key=lambda s: s["agent_steps"])
+
+    def _restore(self, state: dict) -> None:
+        for side, learner in self.learners.items():
+            learner.load_state_dict(state["learners"][side])
+        self.generator.set_state(state["generator"].cpu() if self.device.type == "cpu" else state["generator"])
+        self.updates, self.agent_steps, self.train_s_before = int(state["updates"]), int(state["agent_steps"]), float(state["train_s"])
+
+    # --- the budget -------------------------------------------------------------------------------
+
+    def _fraction_done(self, train_s: float) -> float:
+        """How much of the budget is spent: agent steps of --timesteps, or minutes of this
+        invocation's --time-limit (the larger), for annealing and the cadences."""
+        f = 0.0
+        if self.spec.timesteps:
+            f = max(f, self.agent_steps / self.spec.timesteps)
+        if self.spec.time_limit_min:
+            f = max(f, train_s / (60.0 * self.spec.time_limit_min))
+        return f
+
+    def _learning_rate(self, side: str, fraction: float) -> float:
+        rc = self.spec.recipes[side]
+        lr = float(rc["learning_rate"])
+        return lr * max(1.0 - fraction, 0.0) if rc["anneal_lr"] else lr
+
+    # --- the loop ---------------------------------------------------------------------------------
+
+    def run(self) -> dict:
+        """Trains until the budget is spent (or Ctrl-C: the model is saved at the last finished
+        update and KeyboardInterrupt is raised again). Returns the summary."""
+        spec = self.spec
+        self.out.mkdir(parents=True, exist_ok=True)
+        csv_path = self.out / "progress.csv"
+        columns = list(BASE_COLUMNS) + [f"{s}_{c}" for s in spec.sides for c in SIDE_COLUMNS] + [f"eval_{s}_{c}" for s in spec.sides for c in EVAL_COLUMNS]
+        new_csv = not csv_path.is_file()
+        csv_file = open(csv_path, "a", newline="")
+        writer = csv.DictWriter(csv_file, fieldnames=columns)
+        if new_csv:
+            writer.writeheader()
+        tb = _tensorboard(self.out)
+        bar = _progress_bar(spec, self.progress)
+        # A resumed run goes on from the cadence it had reached.
+        evals_done = ckpts_done = 0
+        if spec.timesteps:
+            evals_done = int(self.agent_steps / spec.timesteps * self.EVALUATIONS)
+            ckpts_done = int(self.agent_steps / spec.timesteps * self.CHECKPOINTS)
+
+        out = self.env.reset()
+        ep_return = {side: np.zeros(self.num_envs) for side in spec.sides}
+        t_start = time.perf_counter()
+        eval_s = 0.0
+        steps_at_start = self.agent_steps
+        interrupted = False
+        stats: dict = {}
+        try:
+            while True:
+                train_s = time.perf_counter() - t_start - eval_s
+                fraction = self._fraction_done(train_s)
+                if fraction >= 1.0 or (not spec.timesteps and not spec.time_limit_min):
+                    break
+                t0 = time.perf_counter()
+                outcomes = np.zeros(len(OUTCOMES), np.int64)
+                finished_returns: dict[str, list[float]] = {side: [] for side in spec.sides}
+                for t in range(self.n_steps):
+                    state = self.env.state() if spec.algo == "mappo" else None
+                    actions = {side: learner.act(t, out[f"obs_{side}"], state) for side, learner in self.learners.items()}
+                    out = self.env.step(actions.get("wolves"), actions.get("targets"))
+                    done_np = out["terminated"] | out["truncated"]
+                    done = torch.from_numpy(done_np)
+                    for side, learner in self.learners.items():
+                        rewards = out[f"rewards_{side}"]
+                        learner.record(t, rewards, done)
+                        ep_return[side] += rewards.mean(axis=1)
+                    if done_np.any():
+                        outcomes += np.bincount(out["outcome"][done_np], minlength=len(OUTCOMES))
+                        for side in spec.sides:
+                            finished_returns[side].extend(ep_return[side][done_np].tolist())
+                            ep_return[side][done_np] = 0.0
+                state = self.env.state() if spec.algo == "mappo" else None
+                for side, learner in self.learners.items():
+                    learner.finish_rollout(out[f"obs_{side}"], state)
+                t1 = time.perf_counter()
+                for side, learner in self.learners.items():
+                    learner.set_learning_rate(self._learning_rate(side, fraction))
+                    stats[side] = learner.update()
+                t2 = time.perf_counter()
+                self.updates += 1
+                self.agent_steps += self.agents_per_step * self.n_steps
+                train_s = time.perf_counter() - t_start - eval_s
+                row = self._row(train_s, steps_at_start, t1 - t0, t2 - t1, outcomes, finished_returns, stats)
+                fraction = self._fraction_done(train_s)
+                if fraction >= (evals_done + 1) / self.EVALUATIONS or fraction >= 1.0:
+                    te = time.perf_counter()
+                    row.update(self._evaluate())
+                    eval_s += time.perf_counter() - te
+                    evals_done = int(fraction * self.EVALUATIONS)
+                writer.writerow({k: _cell(row.get(k)) for k in columns})
+                csv_file.flush()
+                if tb is not None:
+                    for k, v in row.items():
+                        if k not in ("update", "agent_steps") and isinstance(v, (int, float)) and math.isfinite(v):
+                            tb.add_scalar(k, v, self.agent_steps)
+                if bar is not None:
+                    bar.update(self._bar_position(train_s) - bar.n)
+                    bar.set_postfix_str(_postfix(row, spec.sides), refresh=False)
+                if fraction >= (ckpts_done + 1) / self.CHECKPOINTS and fraction < 1.0:
+                    self._save(self.out / "checkpoints" / f"{self.agent_steps:012d}", train_s, checkpoint=True)
+                    ckpts_done = int(fraction * self.CHECKPOINTS)
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            csv_file.close()
+            if bar is not None:
+                bar.close()
+            if tb is not None:
+                tb.close()
+        train_s = time.perf_counter() - t_start - eval_s
+        self._save(self.out, train_s)
+        summary = {
+            "learners": spec.learners,
+            "algo": spec.algo,
+            "agent_steps": self.agent_steps,
+            "updates": self.updates,
+            "train_s": self.train_s_before + train_s,
+            "this_invocation": {"train_s": train_s, "eval_s": eval_s, "agent_steps": self.agent_steps - steps_at_start,
+                                "agent_steps_per_s": (self.agent_steps - steps_at_start) / train_s if train_s > 0 else None},
+            "stopped_by": "interrupt" if interrupted else ("timesteps" if spec.timesteps and self.agent_steps >= spec.timesteps else "time_limit"),
+            "final_evaluation": self.evaluations[-1] if self.evaluations else None,
+        }
+        (self.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+        if interrupted:
+            raise KeyboardInterrupt
+        return summary
+
+    #: Held-out evaluations and checkpoints per budget: at every tenth and every fifth of it
+    #: (of --timesteps, or of --time-limit's minutes: whichever is spent first), and at the end.
+    EVALUATIONS, CHECKPOINTS = 10, 5
+
+    def _bar_position(self, train_s: float) -> int:
+        return int(1000 * min(self._fraction_done(train_s), 1.0))
+
+    def _row(self, train_s: float, steps_at_start: int, rollout_s: float, update_s: float, outcomes: np.ndarray, returns: dict, stats: dict) -> dict:
+        episodes = int(outcomes.sum())
+        rate = lambda code: outcomes[code] / episodes if episodes else float("nan")  # noqa: E731
+        row: dict[str, Any] = {
+            "update": self.updates,
+            "wall_s": self.train_s_before + train_s,
+            "agent_steps": self.agent_steps,
+            "agent_steps_per_s": (self.agent_steps - steps_at_start) / train_s if train_s > 0 else float("nan"),
+            "rollout_s": rollout_s,
+            "update_s": update_s,
+            "episodes": episodes,
+            "captured_rate": rate(CAPTURED),
+            "collision_rate": rate(COLLISION),
+            "timeout_rate": rate(TIMEOUT),
+            "cornered_rate": rate(CORNERED),
+        }
+        for side in self.spec.sides:
+            row[f"{side}_return"] = float(np.mean(returns[side])) if returns[side] else float("nan")
+            for k in SIDE_COLUMNS[1:-1]:
+                row[f"{side}_{k}"] = stats[side][k]
+            row[f"{side}_learning_rate"] = self.learners[side].optimizer.param_groups[0]["lr"]
+        return row
+
+    # --- evaluation --------------------------------------------------------------------------------
+
+    def _evaluate(self) -> dict:
+        """Each learning side, deterministic, on the held-out episodes HELD_OUT_SEED + k against
+        the opponent it trains against (both sides learning: the other side's law in params)."""
+        row = {}
+        record = {"agent_steps": self.agent_steps, "update": self.updates}
+        for side, learner in self.learners.items():
+            policy = learner.policy()
+            opponent = self.spec.opponent if self.spec.learners != "both" else None
+            results = rollout(self.spec.params, episodes=self.spec.eval_episodes, seed=HELD_OUT_SEED, threads=self.spec.threads, opponent=opponent, **{side: policy})
+            wolves = self.spec.params["policies"]["wolves"] if side == "targets" else side
+            targets = self.spec.params["policies"]["targets"] if side == "wolves" else side
+            if opponent is not None:
+                wolves, targets = (wolves, str(opponent)) if side == "wolves" else (str(opponent), targets)
+            r = report(results, wolves, targets)
+            r.pop("capture_steps")
+            record[side] = r
+            for k in EVAL_COLUMNS:
+                row[f"eval_{side}_{k}"] = r[k]
+        self.evaluations.append(record)
+        (self.out / "evaluations.json").write_text(json.dumps(self.evaluations, indent=1) + "\n")
+        return row
+
+    # --- saving ------------------------------------------------------------------------------------
+
+    def _save(self, folder: Path, train_s: float, checkpoint: bool = False) -> None:
+        """The models of every side and the resume state into ``folder`` (files written under a
+        temporary name, then renamed: a file present is complete)."""
+        folder.mkdir(parents=True, exist_ok=True)
+        for side, learner in self.learners.items():
+            model_dir = folder / side
+            model_dir.mkdir(exist_ok=True)
+            config = {
+                "side": side,
+                "algo": self.spec.algo,
+                "learners": self.spec.learners,
+                "trainer": "wolfpack train",
+                "run": str(self.out.resolve()),
+                "checkpoint_steps": self.agent_steps if checkpoint else None,
+                "agent_steps": self.agent_steps,
+                "network": learner.network,
+                "recipe": self.spec.recipes[side],
+                "opponent": self.spec.opponent,
+                "seed": self.spec.seed,
+                "command": self.spec.command,
+                "versions": versions(),
+                "params": self.spec.params,
+            }
+            _write(model_dir / CONFIG_FILE, lambda p: p.write_text(yaml.safe_dump(_plain(config), sort_keys=False)))
+            _write(model_dir / POLICY_FILE, lambda p, a=learner.actor: torch.save({k: v.cpu() for k, v in a.state_dict().items()}, p))
+        state = {
+            "learners": {side: learner.state_dict() for side, learner in self.learners.items()},
+            "generator": self.generator.get_state(),
+            "updates": self.updates,
+            "agent_steps": self.agent_steps,
+            "train_s": self.train_s_before + train_s,
+            "resumes": self.resumes,
+        }
+        _write(folder / TRAINER_FILE, lambda p: torch.save(state, p))
+
+
+def _write(path: Path, writer) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    writer(tmp)
+    os.replace(tmp, path)
+
+
+def _cell(v: Any) -> Any:
+    if isinstance(v, float):
+        return "" if math.isnan(v) else f"{v:.6g}"
+    return "" if v is None else v
+
+
+def _tensorboard(out: Path):
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:  # tensorboard is in the [train] extra; progress.csv has the same numbers
+        return None
+    return SummaryWriter(str(out))
+
+
+def _progress_bar(spec: TrainSpec, enabled: bool):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    budget = f"{spec.time_limit_min:g} min" if spec.time_limit_min else f"{spec.timesteps:,} agent-steps"
+    return tqdm(total=1000, desc=f"{spec.learners} {spec.algo} ({budget})", unit="‰", bar_format="{desc}: {percentage:3.0f}%|{bar:20}| {elapsed}<{remaining} {postfix}", file=sys.stderr)
+
+
+def _postfix(row: dict, sides: tuple[str, ...]) -> str:
+    def pct(v):
+        return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{100 * v:.0f}%"
+
+    text = f"{row['agent_steps_per_s'] / 1000:.0f}k agent-steps/s, captured {pct(row['captured_rate'])}, collision {pct(row['collision_rate'])}"
+    for side in sides:
+        if f"eval_{side}_capture_rate" in row:
+            text += f", held-out {side} {pct(row[f'eval_{side}_capture_rate'])}"
+    return text

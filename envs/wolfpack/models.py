@@ -1,0 +1,202 @@
+"""Saved models as batched callables: :func:`load_policy` is the one loader for every model
+wolfpack can save.
+
+Two kinds of saved model exist:
+
+- **the native trainer's** (``wolfpack train``): a *model folder* holds ``policy.pt`` (the
+  actor's weights with its observation normaliser) and ``config.yaml`` (side, algorithm, the
+  exact params, the recipe); a *run folder* holds one model folder per side that learned,
+  ``RUN/wolves`` and ``RUN/targets`` (checkpoints: ``RUN/checkpoints/<agent steps>/<side>``);
+- **Stable-Baselines3's** (``training/``): ``model.zip`` with ``config.yaml`` beside it, or any
+  SB3 zip.
+
+::
+
+    import wolfpack
+    policy = wolfpack.load_policy("runs/wolves")          # a run folder, a model folder or a zip
+    actions = policy(obs)                                 # obs [n, D] float32 -> actions [n, 2]
+    actions = policy.act(obs, deterministic=False, rng=np.random.default_rng(0))
+
+Rows of ``obs`` are agents in wolfpack's order (a world's agents together, world after world),
+which matters only for models trained with a one-hot agent id (``agent_id: true``); ``n`` must
+then be a multiple of the side's agent count. ``policy.side``, ``policy.obs_dim``,
+``policy.action_mode`` and ``policy.params`` say what the model was trained as and on. A model
+given observations of another size is a ValueError naming both sizes.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from wolfpack.opponents import CONFIG_FILE, SIDES, find_model, load_sb3, run_label, side_action_mode
+
+#: The native model folder's weights file.
+POLICY_FILE = "policy.pt"
+
+
+def native_model_folders(where: str | Path) -> dict[str, Path]:
+    """``{side: model folder}`` of a native model folder (one side) or run folder (every side
+    it holds); {} when ``where`` holds no native model."""
+    path = Path(where)
+    if not path.is_dir():
+        return {}
+    if (path / POLICY_FILE).is_file():
+        config = _read_config(path)
+        return {config.get("side"): path}
+    return {side: path / side for side in SIDES if (path / side / POLICY_FILE).is_file()}
+
+
+def _read_config(folder: Path) -> dict:
+    config_path = folder / CONFIG_FILE
+    if not config_path.is_file():
+        raise ValueError(f"model {folder}: no {CONFIG_FILE} beside {POLICY_FILE} (which params was it trained on?)")
+    config = yaml.safe_load(config_path.read_text()) or {}
+    if config.get("side") not in SIDES:
+        raise ValueError(f"model {folder}: {CONFIG_FILE} names no side ('wolves' or 'targets')")
+    return config
+
+
+def pick_side(folders: dict[str, Path], where: Any, side: str | None) -> str:
+    """The side to load from a run folder's models: ``side`` when given (it must be there), else
+    the only one; ValueError naming the choices otherwise."""
+    if side is not None:
+        if side not in folders:
+            have = ", ".join(folders) or "none"
+            raise ValueError(f"model {where}: holds no model of the {side} (it has: {have})")
+        return side
+    if len(folders) > 1:
+        raise ValueError(f"model {where}: holds a model of each side; say which (side='wolves' or 'targets')")
+    return next(iter(folders))
+
+
+class SavedPolicy:
+    """A saved model as a batched callable ``obs [n, D] -> actions [n, 2]`` (float32, in
+    [-1, 1]); see the module docstring. Also answers SB3's ``predict(obs, deterministic)`` and
+    carries ``observation_space`` / ``action_space``, so code written for SB3 models takes it."""
+
+    def __init__(self, *, side: str, algo: str, obs_dim: int, config: dict, name: str, path: Path) -> None:
+        import gymnasium
+
+        self.side, self.algo, self.obs_dim, self.config, self.name, self.path = side, algo, obs_dim, config, name, path
+        self.params: dict = config.get("params") or {}
+        self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+    @property
+    def action_mode(self) -> str | None:
+        """The mode its actions are in (its side's own mode in the params it was trained on)."""
+        return side_action_mode(self.params, self.side) if "env" in self.params else None
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return self.act(obs)
+
+    def predict(self, obs: np.ndarray, deterministic: bool = True, **_: Any) -> tuple[np.ndarray, None]:
+        return self.act(obs, deterministic), None
+
+    def check(self, obs: Any) -> np.ndarray:
+        x = np.ascontiguousarray(obs, dtype=np.float32)
+        if x.ndim != 2 or x.shape[1] != self.obs_dim:
+            raise ValueError(f"model {self.name!r} takes observations [n, {self.obs_dim}], got shape {tuple(x.shape)}")
+        return x
+
+    def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, side={self.side!r}, obs_dim={self.obs_dim})"
+
+
+class NativePolicy(SavedPolicy):
+    """A model of the native trainer (``policy.pt`` + ``config.yaml``), run on the CPU."""
+
+    def __init__(self, folder: Path, config: dict) -> None:
+        import torch
+
+        from wolfpack.learn.nets import Actor
+
+        arch = config["network"]
+        super().__init__(side=config["side"], algo=config["algo"], obs_dim=int(arch["obs_dim"]), config=config, name=native_label(folder, config), path=folder)
+        self.actor = Actor(**arch)
+        try:
+            state = torch.load(folder / POLICY_FILE, map_location="cpu", weights_only=True)
+            self.actor.load_state_dict(state)
+        except Exception as e:  # a truncated or foreign file: say which
+            raise ValueError(f"model {folder}: cannot load {POLICY_FILE} ({type(e).__name__}: {e})") from None
+        self.actor.eval()
+
+    def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Actions for ``obs`` [n, D]: the clipped mean, or with ``deterministic=False`` a draw
+        mean + σ·ε (ε from ``rng``, default a fresh unseeded generator), clipped."""
+        import torch
+
+        x = self.check(obs)
+        if self.actor.agent_id and x.shape[0] % self.actor.agents:
+            raise ValueError(f"model {self.name!r} uses agent ids: give whole worlds ({self.actor.agents} rows each), got {x.shape[0]} rows")
+        with torch.no_grad():
+            mean = self.actor.mean(self.actor.norm(torch.from_numpy(x))).numpy()
+            std = self.actor.log_std.exp().numpy()
+        if not deterministic:
+            rng = rng if rng is not None else np.random.default_rng()
+            mean = mean + std * rng.standard_normal(mean.shape).astype(np.float32)
+        return np.clip(mean, -1.0, 1.0).astype(np.float32, copy=False)
+
+
+class SB3Policy(SavedPolicy):
+    """A Stable-Baselines3 model (a zip, with its run's ``config.yaml`` when there is one)."""
+
+    def __init__(self, zip_path: Path, config: dict) -> None:
+        self.model = load_sb3(zip_path, config.get("algo"))
+        shape = getattr(self.model.observation_space, "shape", None)
+        if shape is None or len(shape) != 1:
+            raise ValueError(f"model {zip_path}: observations of shape {shape}; wolfpack's are vectors")
+        label = run_label(zip_path, config) if config else zip_path.stem
+        super().__init__(side=config.get("side"), algo=config.get("algo", "sb3"), obs_dim=int(shape[0]), config=config, name=label, path=zip_path)
+
+    def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
+        x = self.check(obs)
+        if deterministic or rng is None:
+            actions, _ = self.model.predict(x, deterministic=deterministic)
+            return np.clip(np.asarray(actions, dtype=np.float32), -1.0, 1.0)
+        from wolfpack.opponents import Opponent
+
+        sampler = Opponent(self.model, deterministic=False)
+        sampler._rng = rng
+        return sampler.act(x)
+
+
+def native_label(folder: Path, config: dict) -> str:
+    """``<algo>:<run>`` (``mappo:wolves``); a both-sides run adds the side (``mappo:both/wolves``),
+    a checkpoint its agent steps (``mappo:wolves@1228800``)."""
+    run = Path(config.get("run") or folder.parent)
+    label = f"{config['algo']}:{run.name}"
+    if config.get("learners") == "both":
+        label += f"/{config['side']}"
+    if config.get("checkpoint_steps") is not None:
+        label += f"@{config['checkpoint_steps']}"
+    return label
+
+
+def load_policy(where: str | Path, side: str | None = None) -> SavedPolicy:
+    """Any saved model as a :class:`SavedPolicy`: a native run or model folder (``side`` picks
+    one of a run's sides; required when it holds both), an SB3 run folder or zip. ValueError
+    naming the path when there is no model there, it cannot be read, or it is of another side."""
+    if side is not None and side not in SIDES:
+        raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
+    folders = native_model_folders(where)
+    if folders:
+        chosen = pick_side(folders, where, side)
+        config = _read_config(folders[chosen])
+        return NativePolicy(folders[chosen], config)
+    try:
+        zip_path, config_path = find_model(where)
+    except FileNotFoundError:
+        raise ValueError(f"model {where}: no model there (a run folder of 'wolfpack train', its model folder, or an SB3 model.zip)") from None
+    config = (yaml.safe_load(config_path.read_text()) or {}) if config_path is not None else {}
+    policy = SB3Policy(zip_path, config)
+    if side is not None and policy.side not in (None, side):
+        raise ValueError(f"model {where}: trained for the {policy.side}, not the {side}")
+    return policy
