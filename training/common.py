@@ -33,6 +33,7 @@ import wolfpack
 from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
+from wolfpack.models import SavedPolicy, load_policy, native_model_folders
 from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode
 from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, TRAIN_SEED_BASE, Policy, report, rollout, wilson_interval  # noqa: F401  (re-exported for the scripts)
 
@@ -182,8 +183,9 @@ class TrainedModel:
     @property
     def label(self) -> str:
         """``<kind>:<run folder>``: kind ``imitation`` for imitate.py's models, else the algorithm
-        (``ppo:wolves_ft``); checkpoints add their file name."""
-        return run_label(self.path, self.config)
+        (``ppo:wolves_ft``, ``mappo:wolves``); checkpoints add their file name (SB3) or agent
+        steps (``wolfpack train``)."""
+        return self.model.name if isinstance(self.model, SavedPolicy) else run_label(self.path, self.config)
 
     @property
     def action_mode(self) -> str:
@@ -198,9 +200,20 @@ class TrainedModel:
         return np.asarray(actions, dtype=np.float32).reshape(*obs.shape[:-1], 2)
 
 
-def load_model(where: str | Path, device: str = "cpu") -> TrainedModel:
-    """A model from a run folder (``DIR/model.zip`` + ``DIR/config.yaml``) or a ``.zip`` next to
-    its run's ``config.yaml`` (checkpoints: the run folder is the zip's parent or grandparent)."""
+def load_model(where: str | Path, device: str = "cpu", side: str | None = None) -> TrainedModel:
+    """A model from a run folder of ``wolfpack train`` (``side`` picks one side of a run in which
+    both learned) or one side's model folder in it, or an SB3 run folder (``DIR/model.zip`` +
+    ``DIR/config.yaml``) or a ``.zip`` next to its run's ``config.yaml`` (checkpoints: the run
+    folder is the zip's parent or grandparent)."""
+    if native_model_folders(where):
+        try:
+            policy = load_policy(where, side)
+        except ValueError as e:
+            raise UsageError(str(e)) from None
+        expected = observation_size(_core.validate_params(policy.params), policy.side)
+        if policy.obs_dim != expected:
+            raise UsageError(f"model {where}: it takes {policy.obs_dim} observations, but this version of wolfpack gives the {policy.side} {expected} on its params (retrain it)")
+        return TrainedModel(policy.path, policy.side, policy.algo, _core.validate_params(policy.params), policy.config, policy)
     try:
         zip_path, config_path = find_model(where)
     except FileNotFoundError as e:

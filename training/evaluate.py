@@ -3,7 +3,7 @@
     python training/evaluate.py --episodes 200 --seed 0 [--json] [--out DIR] [MODEL ...]
 
 Rows: every scripted pairing (wolf law × target law) that this version implements, then every
-MODEL (a run folder of train.py/imitate.py, or a .zip in one) against the scripted opponent it
+MODEL (a run folder of `wolfpack train`, train.py or imitate.py, or a .zip in one) against the scripted opponent it
 was trained with. Episode k of every row is world ``seed + k``'s first episode, so the
 seed000-vs-escape row is exactly ``wolfpack hunt --episodes K --seed S``. Per row: capture rate
 with its 95 % Wilson interval, median and mean capture steps (over captured episodes), wolf
@@ -44,6 +44,8 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from wolfpack.models import native_model_folders  # noqa: E402
 
 from common import (  # noqa: E402
     TARGET_LAWS,
@@ -110,8 +112,9 @@ def plot(rows: list[dict], out: Path) -> None:
 
     names = [f"{r['wolves']}\nvs {r['targets']}" for r in rows]
     rates = np.array([r["capture_rate"] for r in rows])
-    lo = rates - np.array([r["capture_rate_ci95"][0] for r in rows])
-    hi = np.array([r["capture_rate_ci95"][1] for r in rows]) - rates
+    # Clipped at 0: at a rate of 0 or 1 the Wilson bound can round a hair inside the rate.
+    lo = np.clip(rates - np.array([r["capture_rate_ci95"][0] for r in rows]), 0, None)
+    hi = np.clip(np.array([r["capture_rate_ci95"][1] for r in rows]) - rates, 0, None)
     fig, ax = plt.subplots(figsize=(max(5, 1.3 * len(rows)), 4))
     ax.bar(range(len(rows)), rates * 100, yerr=[lo * 100, hi * 100], capsize=4, color="tab:blue", alpha=0.8)
     ax.set_xticks(range(len(rows)), names, fontsize=8)
@@ -185,11 +188,15 @@ MATRIX_KEYS = ("wolves", "targets", "episodes", "first_seed", "capture_rate", "c
 
 def expand_models(paths: list[str]) -> list[str]:
     """Run folders and zips as they are; a selfplay.py league folder becomes its learned
-    members (those it trained; the models it borrowed are given on their own)."""
+    members (those it trained; the models it borrowed are given on their own); a run of
+    ``wolfpack train`` in which both sides learned becomes its two models."""
     out = []
     for p in paths:
         league = Path(p) / "league.json"
-        if league.is_file():
+        native = native_model_folders(p)
+        if len(native) > 1:
+            out += [str(folder) for folder in native.values()]
+        elif league.is_file():
             doc = json.loads(league.read_text())
             out += [str(Path(p) / m["path"]) for m in doc["members"] if m["kind"] == "model" and not m.get("fixed")]
         else:
@@ -371,7 +378,7 @@ def main(argv: list[str] | None = None) -> int:
             base = env_params(args.params, args.sets)
             out = prepare_out(args.out) if args.out else None
             return run_matrix(args, base, expand_models(args.models), out)
-        models = [load_model(m) for m in args.models]
+        models = [load_model(m) for m in expand_models(args.models)]
         base = env_params(args.params, args.sets)
         out = prepare_out(args.out) if args.out else None
     except (UsageError, ValueError) as e:

@@ -14,7 +14,7 @@ Two kinds of saved model exist:
 
     import wolfpack
     policy = wolfpack.load_policy("runs/wolves")          # a run folder, a model folder or a zip
-    actions = policy(obs)                                 # obs [n, D] float32 -> actions [n, 2]
+    actions = policy(obs)                                 # obs [..., D] float32 -> actions [..., 2]
     actions = policy.act(obs, deterministic=False, rng=np.random.default_rng(0))
 
 Rows of ``obs`` are agents in wolfpack's order (a world's agents together, world after world),
@@ -98,12 +98,19 @@ class SavedPolicy:
         return self.act(obs, deterministic), None
 
     def check(self, obs: Any) -> np.ndarray:
+        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D is not the model's."""
         x = np.ascontiguousarray(obs, dtype=np.float32)
-        if x.ndim != 2 or x.shape[1] != self.obs_dim:
+        if x.ndim < 1 or x.shape[-1] != self.obs_dim:
             raise ValueError(f"model {self.name!r} takes observations [n, {self.obs_dim}], got shape {tuple(x.shape)}")
-        return x
+        return x.reshape(-1, self.obs_dim)
 
     def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Actions [..., 2] for observations [..., D] (float32, clipped to [-1, 1]): the
+        policy's mode, or with ``deterministic=False`` a draw with ``rng``."""
+        x = self.check(obs)
+        return self._act(x, deterministic, rng).reshape(*np.shape(obs)[:-1], 2)
+
+    def _act(self, x: np.ndarray, deterministic: bool, rng: np.random.Generator | None) -> np.ndarray:
         raise NotImplementedError
 
     def __repr__(self) -> str:
@@ -128,12 +135,11 @@ class NativePolicy(SavedPolicy):
             raise ValueError(f"model {folder}: cannot load {POLICY_FILE} ({type(e).__name__}: {e})") from None
         self.actor.eval()
 
-    def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
-        """Actions for ``obs`` [n, D]: the clipped mean, or with ``deterministic=False`` a draw
-        mean + σ·ε (ε from ``rng``, default a fresh unseeded generator), clipped."""
+    def _act(self, x: np.ndarray, deterministic: bool, rng: np.random.Generator | None) -> np.ndarray:
+        """The clipped mean, or a draw mean + σ·ε (ε from ``rng``, default a fresh unseeded
+        generator), clipped."""
         import torch
 
-        x = self.check(obs)
         if self.actor.agent_id and x.shape[0] % self.actor.agents:
             raise ValueError(f"model {self.name!r} uses agent ids: give whole worlds ({self.actor.agents} rows each), got {x.shape[0]} rows")
         with torch.no_grad():
@@ -156,8 +162,7 @@ class SB3Policy(SavedPolicy):
         label = run_label(zip_path, config) if config else zip_path.stem
         super().__init__(side=config.get("side"), algo=config.get("algo", "sb3"), obs_dim=int(shape[0]), config=config, name=label, path=zip_path)
 
-    def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
-        x = self.check(obs)
+    def _act(self, x: np.ndarray, deterministic: bool, rng: np.random.Generator | None) -> np.ndarray:
         if deterministic or rng is None:
             actions, _ = self.model.predict(x, deterministic=deterministic)
             return np.clip(np.asarray(actions, dtype=np.float32), -1.0, 1.0)

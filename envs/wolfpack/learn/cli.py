@@ -172,8 +172,15 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         raise ValueError("wolfpack train needs torch: pip install 'wolfpack[train]'") from None
     from wolfpack.batch import resolve_params
     from wolfpack.learn.trainer import Trainer, TrainSpec
+    from wolfpack.opponents import SCRIPTED_LAWS
 
     device = resolve_device(device)
+    overrides = dict(overrides)
+    other = {"wolves": "targets", "targets": "wolves"}.get(learners)
+    if opponent is not None and other and str(opponent) in SCRIPTED_LAWS[other]:
+        # A law opponent is the params' law of that side: the saved models then say in their
+        # params what they were trained against.
+        overrides[f"policies.{other}"] = str(opponent)
     resolved = resolve_params(params, overrides)
     sides = ("wolves", "targets") if learners == "both" else (learners,)
     recipes = {side: recipe(side, algo, hp) for side in sides}

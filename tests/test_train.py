@@ -1,0 +1,228 @@
+"""The native trainer (``wolfpack train``, :mod:`wolfpack.learn`): tiny runs end to end (both
+sides, MAPPO and IPPO), bit-identical reruns, resuming, its saved models driving ``opponent=``,
+``wolfpack.load_policy`` and ``training/evaluate.py`` exactly as in training, and every bad
+input refused with one line and nothing written."""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+import wolfpack  # noqa: E402
+from wolfpack.evaluation import HELD_OUT_SEED, report, rollout  # noqa: E402
+from wolfpack.learn import recipe, train  # noqa: E402
+from wolfpack.models import load_policy  # noqa: E402
+
+TRAINING = Path(__file__).resolve().parents[1] / "training"
+
+#: A few updates in a few seconds: 8 worlds x 16 steps, short episodes.
+TINY = {"num_envs": 8, "n_steps": 16, "epochs": 2, "minibatch_size": 64, "hidden": [16, 16]}
+SHORT = {"world.max_steps": 40}
+
+
+def tiny_train(out: Path, learners: str = "wolves", algo: str = "mappo", timesteps: int = 2_000, **kw):
+    kw.setdefault("overrides", SHORT)
+    kw.setdefault("hp", TINY)
+    kw.setdefault("threads", 1)
+    kw.setdefault("torch_threads", 1)
+    kw.setdefault("eval_episodes", 4)
+    return train(learners, algo, out=out, timesteps=timesteps, device="cpu", progress=False, **kw)
+
+
+def rows(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def both_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("both_mappo")
+    summary = tiny_train(out, "both", "mappo", timesteps=4_000, seed=1)
+    return out, summary
+
+
+def test_both_sides_mappo_run_writes_models_logs_checkpoints_and_evaluations(both_run):
+    out, summary = both_run
+    for name in ("config.yaml", "trainer.pt", "progress.csv", "evaluations.json", "summary.json"):
+        assert (out / name).is_file(), name
+    for side in ("wolves", "targets"):
+        assert (out / side / "policy.pt").is_file() and (out / side / "config.yaml").is_file()
+    assert list(out.glob("events.out.tfevents.*")), "TensorBoard log missing"
+    assert list((out / "checkpoints").glob("*/wolves/policy.pt")), "no checkpoint"
+    # 8 worlds x 16 steps x (5 wolves + 1 target) = 768 agent-steps per update; 4,000 -> 6 updates.
+    assert summary["agent_steps"] == 6 * 768 and summary["updates"] == 6
+    table = rows(out / "progress.csv")
+    assert len(table) == 6
+    for column in ("wall_s", "agent_steps", "agent_steps_per_s", "captured_rate", "collision_rate", "wolves_policy_loss", "targets_value_loss",
+                   "wolves_entropy", "targets_approx_kl", "eval_wolves_capture_rate", "eval_targets_capture_rate"):
+        assert column in table[0], column
+    assert [int(r["agent_steps"]) for r in table] == [768 * k for k in range(1, 7)]
+    assert all(float(r["agent_steps_per_s"]) > 0 for r in table)
+    # The learning rate anneals linearly to 0 over the budget.
+    lrs = [float(r["wolves_learning_rate"]) for r in table]
+    assert lrs == sorted(lrs, reverse=True) and lrs[0] == pytest.approx(3e-4) and lrs[-1] < lrs[0]
+    evaluations = json.loads((out / "evaluations.json").read_text())
+    assert evaluations[-1]["agent_steps"] == summary["agent_steps"]
+    assert evaluations[-1]["wolves"]["episodes"] == 4 and evaluations[-1]["targets"]["wolves"] == "seed000"
+
+
+def test_mappo_critic_reads_the_state_and_ippo_does_not(tmp_path):
+    env = wolfpack.BatchEnv(num_envs=1, seed=0, world__max_steps=40)
+    from wolfpack.learn.ppo import SideLearner
+
+    common = dict(obs_dim=env.wolf_obs_dim, state_dim=env.state_dim, agents=5, num_envs=2, device=torch.device("cpu"), generator=torch.Generator())
+    r = recipe("wolves", "mappo", TINY)
+    mappo = SideLearner("wolves", "mappo", r, **common)
+    ippo = SideLearner("wolves", "ippo", r, **common)
+    assert mappo.critic.body[0].in_features == env.state_dim + env.wolf_obs_dim
+    assert ippo.critic.body[0].in_features == env.wolf_obs_dim
+    with_ids = SideLearner("wolves", "ippo", recipe("wolves", "ippo", {**TINY, "agent_id": True}), **common)
+    assert with_ids.actor.body[0].in_features == env.wolf_obs_dim + 5
+
+
+def test_ippo_targets_against_a_law_train_and_say_what_they_trained_against(tmp_path):
+    summary = tiny_train(tmp_path / "t", "targets", "ippo", opponent="bvc")
+    policy = load_policy(tmp_path / "t")
+    assert policy.side == "targets" and policy.algo == "ippo" and policy.obs_dim == wolfpack.BatchEnv(learners="targets").target_obs_dim
+    assert policy.params["policies"]["wolves"] == "bvc"
+    assert summary["final_evaluation"]["targets"]["wolves"] == "bvc"
+
+
+def test_a_rerun_with_the_same_seed_is_bit_identical_and_another_seed_is_not(tmp_path):
+    def weights(out):
+        return {k: v.numpy().copy() for k, v in torch.load(out / "wolves" / "policy.pt", weights_only=True).items()}
+
+    tiny_train(tmp_path / "a", seed=5)
+    tiny_train(tmp_path / "b", seed=5)
+    tiny_train(tmp_path / "c", seed=6)
+    a, b, c = weights(tmp_path / "a"), weights(tmp_path / "b"), weights(tmp_path / "c")
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+    assert not all(np.array_equal(a[k], c[k]) for k in a)
+    keep = ("captured_rate", "collision_rate", "wolves_policy_loss", "wolves_value_loss", "eval_wolves_capture_rate")
+    ra, rb = rows(tmp_path / "a" / "progress.csv"), rows(tmp_path / "b" / "progress.csv")
+    assert [[r[k] for k in keep] for r in ra] == [[r[k] for k in keep] for r in rb]
+
+
+def test_resume_goes_on_from_the_saved_state(tmp_path):
+    out = tmp_path / "run"
+    first = tiny_train(out, timesteps=1_000)
+    assert first["agent_steps"] == 2 * 640  # 8 worlds x 16 steps x 5 wolves per update
+    before = load_policy(out)(np.zeros((5, before_dim()), np.float32))
+    second = tiny_train(out, timesteps=4_000, resume=True)
+    assert second["agent_steps"] == 7 * 640 and second["updates"] == 7
+    table = rows(out / "progress.csv")
+    assert [int(r["update"]) for r in table] == list(range(1, 8))  # appended, not restarted
+    after = load_policy(out)(np.zeros((5, before_dim()), np.float32))
+    assert not np.array_equal(before, after)
+
+
+def before_dim() -> int:
+    return wolfpack.BatchEnv(num_envs=1).wolf_obs_dim
+
+
+def test_saved_model_acts_as_the_trainer_did_and_drives_opponent_and_evaluation(both_run, tmp_path):
+    out, summary = both_run
+    wolves, targets = load_policy(out, "wolves"), load_policy(out, "targets")
+    with pytest.raises(ValueError, match="each side"):
+        load_policy(out)
+    # The loader and the trainer's last evaluation agree exactly: same episodes, same outcomes.
+    final = summary["final_evaluation"]["wolves"]
+    params = wolves.params
+    again = report(rollout(params, episodes=4, seed=HELD_OUT_SEED, wolves=wolves), wolves.name, "escape")
+    for k in ("capture_rate", "collision_rate", "median_capture_steps", "mean_return_wolves"):
+        assert again[k] == final[k], k
+    # opponent= takes a side's model folder, or the run with the side said.
+    batch = wolfpack.BatchEnv(params, num_envs=3, learners="wolves", seed=HELD_OUT_SEED, autoreset=False, opponent=out / "targets")
+    assert batch.opponent.side == "targets" and batch.opponent.obs_dim == targets.obs_dim
+    obs = batch.reset(HELD_OUT_SEED)
+    via_opponent = wolfpack.Opponent(out, side="targets").act(batch._opponent_obs.reshape(-1, targets.obs_dim))
+    assert np.array_equal(via_opponent, targets(batch._opponent_obs.reshape(-1, targets.obs_dim)))
+    assert obs["obs_wolves"].shape == (3, 5, wolves.obs_dim)
+    # Sampled actions repeat for a seeded generator and stay in the box.
+    x = np.random.default_rng(0).standard_normal((10, wolves.obs_dim)).astype(np.float32)
+    s1 = wolves.act(x, deterministic=False, rng=np.random.default_rng(3))
+    s2 = wolves.act(x, deterministic=False, rng=np.random.default_rng(3))
+    assert np.array_equal(s1, s2) and np.abs(s1).max() <= 1.0 and not np.array_equal(s1, wolves(x))
+
+
+def test_training_evaluate_reads_a_run_of_both_sides(both_run, tmp_path):
+    out, _ = both_run
+    sys.path.insert(0, str(TRAINING))
+    import evaluate
+
+    dest = tmp_path / "eval"
+    assert evaluate.main(["--episodes", "3", "--seed", "0", "--set", "world.max_steps=40", "--out", str(dest), str(out)]) == 0
+    doc = json.loads((dest / "results.json").read_text())
+    labels = {(r["wolves"], r["targets"]) for r in doc["rows"]}
+    name = out.name
+    assert (f"mappo:{name}/wolves", "escape") in labels and ("seed000", f"mappo:{name}/targets") in labels
+    matrix = tmp_path / "matrix"
+    assert evaluate.main(["--matrix", "--episodes", "2", "--jobs", "1", "--set", "world.max_steps=40", "--out", str(matrix), str(out)]) == 0
+    cells = json.loads((matrix / "matrix.json").read_text())["cells"]
+    assert any(c["wolves"] == f"mappo:{name}/wolves" and c["targets"] == f"mappo:{name}/targets" for c in cells)
+
+
+# --- bad input ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--side", "cats", "--out", "{out}", "--time-limit", "1"], "invalid choice: 'cats'"),
+        (["--side", "wolves", "--algo", "qmix", "--out", "{out}", "--time-limit", "1"], "invalid choice: 'qmix'"),
+        (["--side", "wolves", "--device", "tpu", "--out", "{out}", "--time-limit", "1"], "invalid choice: 'tpu'"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "0"], "--time-limit: must be a number of minutes > 0"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "nan"], "--time-limit: must be a number of minutes > 0"),
+        (["--side", "wolves", "--out", "{out}"], "give a budget"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "1", "--hp", "learning_rat=1"], "--hp learning_rat: no such hyperparameter"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "1", "--hp", "gamma=2"], "--hp gamma: must be a number in [0, 1]"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "1", "--opponent", "seed000"], "'seed000' drives the wolves, but the wolves learn here"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "1", "--opponent", "nowhere/at/all"], "no model file there"),
+        (["--side", "both", "--out", "{out}", "--time-limit", "1", "--opponent", "escape"], "no other side for it to drive"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "1", "--set", "world.wolvs=3"], "world.wolvs"),
+        (["--side", "wolves", "--out", "{out}", "--time-limit", "1", "--resume"], "holds no run"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_and_nothing_written(cli, tmp_path, args, message):
+    out = tmp_path / "run"
+    result = cli("train", *[a.replace("{out}", str(out)) for a in args])
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr
+    assert not out.exists()
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="a CUDA device is present")
+def test_cuda_where_there_is_none_is_refused(cli, tmp_path):
+    result = cli("train", "--side", "wolves", "--out", tmp_path / "run", "--time-limit", "1", "--device", "cuda")
+    assert result.returncode == 2 and "no CUDA device here" in result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_model_of_another_observation_size_or_side_is_refused(both_run, cli, tmp_path):
+    out, _ = both_run
+    # The wolves trained with 16 lidar rays; with 8 rays their observations are shorter.
+    result = cli("train", "--side", "wolves", "--out", tmp_path / "a", "--time-limit", "1", "--opponent", out / "targets", "--set", "env.lidar.rays=8")
+    assert result.returncode == 2 and "observations" in result.stderr and not (tmp_path / "a").exists(), result.stderr
+    result = cli("train", "--side", "targets", "--out", tmp_path / "b", "--time-limit", "1", "--opponent", out / "targets")
+    assert result.returncode == 2 and "the targets learn here" in result.stderr and not (tmp_path / "b").exists(), result.stderr
+
+
+def test_an_existing_run_is_never_overwritten_and_resume_checks_the_configuration(tmp_path, cli):
+    out = tmp_path / "run"
+    tiny_train(out, timesteps=700)
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    result = cli("train", "--side", "wolves", "--out", out, "--time-limit", "1")
+    assert result.returncode == 2 and "not a new or empty folder" in result.stderr
+    result = cli("train", "--side", "wolves", "--algo", "ippo", "--out", out, "--time-limit", "1", "--resume")
+    assert result.returncode == 2 and "another algo" in result.stderr, result.stderr
+    result = cli("train", "--side", "wolves", "--out", out, "--time-limit", "1", "--resume", "--set", "world.max_steps=50")
+    assert result.returncode == 2 and "another params" in result.stderr, result.stderr
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
