@@ -108,6 +108,7 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
             self.seconds = 0.0
 
         def _on_training_start(self) -> None:
+            self.t_start = time.perf_counter()
             self._evaluate()
             self.seconds_before_rollouts = self.seconds  # the others run inside rollout collection
 
@@ -130,6 +131,7 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
             row = report(rollout(params, episodes=self.episodes, seed=HELD_OUT_SEED, threads=args.threads, **kw), "learned" if model_side == "wolves" else params["policies"]["wolves"], "learned" if model_side == "targets" else params["policies"]["targets"])
             row.pop("capture_steps")
             row["timesteps"] = self.num_timesteps
+            row["train_s"] = t0 - self.t_start - self.seconds  # wall time of training so far, evaluations excluded
             ret = row["mean_return_wolves" if model_side == "wolves" else "mean_return_targets"]
             for key in ("capture_rate", "median_capture_steps", "collision_rate", "target_collision_rate", "timeout_rate"):
                 if row[key] is not None:

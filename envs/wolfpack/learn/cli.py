@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
-from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe
+from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, reward_overrides
 
 DEVICES = ("auto", "cpu", "cuda")
 
@@ -33,7 +33,7 @@ A budget is needed: --time-limit MINUTES (wall clock of this invocation) and/or 
 (agent-steps in all; one batch step of E worlds with N learning wolves is E*N agent-steps);
 training stops at whichever comes first, and the learning rate anneals over it. Held-out
 evaluations (deterministic, episodes 500000 + k, never trained on) run at every tenth of the
-budget and at the end; checkpoints at every fifth. A --timesteps run is bit-identical when
+budget (--evaluations) and at the end; checkpoints at every fifth. A --timesteps run is bit-identical when
 rerun on the CPU with the same seed and thread counts; a --time-limit run stops where the clock
 says.
 
@@ -78,6 +78,7 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, 256), default=None, help="the batch's worker threads (default: the recipe's choice for this machine, see --help's text)")
     p.add_argument("--torch-threads", metavar="T", type=_int_at_least(1, 256), default=None, help="torch's threads (default: all cores; the batch and torch take turns, never run together)")
     p.add_argument("--eval-episodes", metavar="K", type=_int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
+    p.add_argument("--evaluations", metavar="K", type=_int_at_least(1), default=10, help="held-out evaluations per budget, evenly spread (default 10), and one at the end")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest state (its configuration must match)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
@@ -92,7 +93,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     summary = run_training(
         learners=args.side, algo=args.algo, out=args.out, time_limit_min=args.time_limit, timesteps=args.timesteps, seed=args.seed,
         params=args.params, overrides=overrides, hp=hp, opponent=args.opponent, device=args.device, threads=args.threads,
-        torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, resume=args.resume, progress=not args.no_progress,
+        torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, evaluations=args.evaluations, resume=args.resume, progress=not args.no_progress,
         command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
     )
     final = summary.get("final_evaluation") or {}
@@ -154,7 +155,7 @@ def _short(v: Any) -> str:
 
 
 def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, opponent, device: str,
-                 threads, torch_threads, eval_episodes: int, resume: bool, progress: bool, command: str) -> dict:
+                 threads, torch_threads, eval_episodes: int, resume: bool, evaluations: int = 10, progress: bool, command: str) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
     if learners not in LEARNERS:
         raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
@@ -175,19 +176,20 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
     from wolfpack.opponents import SCRIPTED_LAWS
 
     device = resolve_device(device)
-    overrides = dict(overrides)
+    sides = ("wolves", "targets") if learners == "both" else (learners,)
+    recipes = {side: recipe(side, algo, hp) for side in sides}
+    # The recipe's reward weights first, the run's own --set after them (they win).
+    overrides = {**{k: v for side in sides for k, v in reward_overrides(side, recipes[side]).items()}, **overrides}
     other = {"wolves": "targets", "targets": "wolves"}.get(learners)
     if opponent is not None and other and str(opponent) in SCRIPTED_LAWS[other]:
         # A law opponent is the params' law of that side: the saved models then say in their
         # params what they were trained against.
         overrides[f"policies.{other}"] = str(opponent)
     resolved = resolve_params(params, overrides)
-    sides = ("wolves", "targets") if learners == "both" else (learners,)
-    recipes = {side: recipe(side, algo, hp) for side in sides}
     cores_env, cores_torch = default_threads()
     spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=str(opponent) if opponent is not None else None,
                      timesteps=timesteps, time_limit_min=time_limit_min, threads=threads or cores_env, torch_threads=torch_threads or cores_torch,
-                     device=device, eval_episodes=eval_episodes, command=command)
+                     device=device, eval_episodes=eval_episodes, evaluations=evaluations, command=command)
     out = Path(out)
     prepare_out(out, resume, spec.identity())
     torch.set_num_threads(spec.torch_threads)
@@ -202,6 +204,6 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
 
         out.mkdir(parents=True, exist_ok=True)
         config = {**spec.identity(), "trainer": "wolfpack train", "timesteps": timesteps, "time_limit_min": time_limit_min, "threads": spec.threads,
-                  "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "command": command, "versions": versions()}
+                  "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "evaluations": evaluations, "command": command, "versions": versions()}
         (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
     return trainer.run()

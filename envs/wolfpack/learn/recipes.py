@@ -21,7 +21,12 @@ def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> 
     table = yaml.safe_load(RECIPES_PATH.read_text())
     r = dict(table["default"])
     r.update((table.get(side) or {}).get(algo) or {})
+    r["rewards"] = dict(r.get("rewards") or {})
     for key, value in (overrides or {}).items():
+        head, _, sub = key.partition(".")
+        if head == "rewards" and sub:
+            r["rewards"][sub] = value
+            continue
         if key not in r:
             raise ValueError(f"--hp {key}: no such hyperparameter (known: {', '.join(sorted(r))})")
         r[key] = value
@@ -51,3 +56,11 @@ def _check(r: dict) -> None:
     need("activation", r["activation"] in ("tanh", "relu"), "'tanh' or 'relu'")
     for key in ("anneal_lr", "agent_id", "norm_obs", "norm_reward"):
         need(key, isinstance(r[key], bool), "true or false")
+    need("rewards", isinstance(r["rewards"], dict), "a mapping of the side's reward keys")
+
+
+def reward_overrides(side: str, r: dict) -> dict:
+    """The recipe's reward weights as params overrides (``rewards.<side>.<key>``): weights
+    change what the learner is paid, never how an episode ends, so a model trained with them
+    is evaluated on the same outcomes as any other."""
+    return {f"rewards.{side}.{k}": v for k, v in r["rewards"].items()}

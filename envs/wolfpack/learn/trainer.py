@@ -70,6 +70,7 @@ class TrainSpec:
     torch_threads: int | None = None
     device: str = "cpu"
     eval_episodes: int = 100
+    evaluations: int = 10
     command: str = ""
     extra: dict = field(default_factory=dict)
 
@@ -188,7 +189,7 @@ class Trainer:
         # A resumed run goes on from the cadence it had reached.
         evals_done = ckpts_done = 0
         if spec.timesteps:
-            evals_done = int(self.agent_steps / spec.timesteps * self.EVALUATIONS)
+            evals_done = int(self.agent_steps / spec.timesteps * self.spec.evaluations)
             ckpts_done = int(self.agent_steps / spec.timesteps * self.CHECKPOINTS)
 
         out = self.env.reset()
@@ -235,11 +236,11 @@ class Trainer:
                 train_s = time.perf_counter() - t_start - eval_s
                 row = self._row(train_s, steps_at_start, t1 - t0, t2 - t1, outcomes, finished_returns, stats)
                 fraction = self._fraction_done(train_s)
-                if fraction >= (evals_done + 1) / self.EVALUATIONS or fraction >= 1.0:
+                if fraction >= (evals_done + 1) / self.spec.evaluations or fraction >= 1.0:
                     te = time.perf_counter()
-                    row.update(self._evaluate())
+                    row.update(self._evaluate(self.train_s_before + train_s))
                     eval_s += time.perf_counter() - te
-                    evals_done = int(fraction * self.EVALUATIONS)
+                    evals_done = int(fraction * self.spec.evaluations)
                 writer.writerow({k: _cell(row.get(k)) for k in columns})
                 csv_file.flush()
                 if tb is not None:
@@ -278,9 +279,10 @@ class Trainer:
             raise KeyboardInterrupt
         return summary
 
-    #: Held-out evaluations and checkpoints per budget: at every tenth and every fifth of it
-    #: (of --timesteps, or of --time-limit's minutes: whichever is spent first), and at the end.
-    EVALUATIONS, CHECKPOINTS = 10, 5
+    #: Checkpoints per budget: at every fifth of it (of --timesteps, or of --time-limit's
+    #: minutes: whichever is spent first). Held-out evaluations: ``spec.evaluations`` per
+    #: budget, and at the end.
+    CHECKPOINTS = 5
 
     def _bar_position(self, train_s: float) -> int:
         return int(1000 * min(self._fraction_done(train_s), 1.0))
@@ -310,11 +312,12 @@ class Trainer:
 
     # --- evaluation --------------------------------------------------------------------------------
 
-    def _evaluate(self) -> dict:
+    def _evaluate(self, train_s: float) -> dict:
         """Each learning side, deterministic, on the held-out episodes HELD_OUT_SEED + k against
-        the opponent it trains against (both sides learning: the other side's law in params)."""
+        the opponent it trains against (both sides learning: the other side's law in params).
+        ``train_s``: the run's training seconds so far (evaluations excluded)."""
         row = {}
-        record = {"agent_steps": self.agent_steps, "update": self.updates}
+        record = {"agent_steps": self.agent_steps, "update": self.updates, "train_s": train_s}
         for side, learner in self.learners.items():
             policy = learner.policy()
             opponent = self.spec.opponent if self.spec.learners != "both" else None

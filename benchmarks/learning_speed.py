@@ -1,0 +1,162 @@
+#!/usr/bin/env python3
+"""Learning speed: the SB3 PPO path against the native trainer, in one run on one machine.
+
+For each trainer and training seed, one time-limited run from scratch on the documented
+scenario (see BENCHMARKS.md, "Learning"):
+
+- **native**: ``wolfpack train --side SIDE --algo ALGO`` with its default recipe;
+- **sb3**: ``training/train.py --side SIDE --algo ppo`` (SB3's PPO on ``make_vec_env``, the
+  hyperparameters of ``training/hyperparams.yaml``).
+
+Both evaluate the deterministic policy on the same held-out episodes (seeds 500000 + k) at
+regular points of the run. Reported per trainer: agent-steps/s end to end (training wall time,
+evaluations excluded), and for each skill level the training wall time and agent-steps at the
+first evaluation that reached it (median and range over seeds; a seed that never reached it
+counts as not reached). Skill: the capture rate against ``escape`` for wolves, the survival
+rate against ``seed000`` for targets.
+
+Usage::
+
+    python benchmarks/learning_speed.py --side wolves --minutes 15 --seeds 5              # 2 x 5 x 15 min
+    python benchmarks/learning_speed.py --side wolves --minutes 2 --seeds 1 --json        # throughput only
+    python benchmarks/learning_speed.py --trainers native --minutes 15 --seeds 5 --out benchmarks/results/learning-x.json
+
+Runs go one after another (never side by side: each has the machine to itself). Nothing here
+asserts a speed; the numbers are what the machine gave.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from peers import machine_info  # noqa: E402
+
+LEVELS = (0.80, 0.90, 0.95)
+TRAINERS = ("native", "sb3")
+
+
+def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: Path, evaluations: int, eval_episodes: int, device: str) -> list[str]:
+    if trainer == "native":
+        return [sys.executable, "-m", "wolfpack.cli", "train", "--side", side, "--algo", algo, "--seed", str(seed), "--time-limit", str(minutes),
+                "--evaluations", str(evaluations), "--eval-episodes", str(eval_episodes), "--device", device, "--out", str(out), "--no-progress"]
+    # SB3's budget is in timesteps: a ceiling it never reaches in the time limit, and held-out
+    # evaluations at the same count per run as the native trainer's, from its measured rate.
+    ceiling = 10**10
+    return [sys.executable, str(ROOT / "training" / "train.py"), "--side", side, "--algo", "ppo", "--seed", str(seed), "--timesteps", str(ceiling),
+            "--time-limit", str(minutes), "--eval-freq", str(max(1, int(7_000 * 60 * minutes / evaluations))), "--eval-episodes", str(eval_episodes),
+            "--checkpoint-freq", str(ceiling), "--threads", "2", "--torch-threads", "2", "--out", str(out), "--no-progress"]
+
+
+def skill(side: str, row: dict) -> float:
+    return row["capture_rate"] if side == "wolves" else 1.0 - row["capture_rate"]
+
+
+def read_run(trainer: str, side: str, out: Path) -> dict:
+    """(evaluation points [(train_s, agent_steps, skill, collision_rate)], agent-steps/s)."""
+    evals = json.loads((out / "evaluations.json").read_text())
+    if trainer == "native":
+        points = [(e["train_s"], e["agent_steps"], skill(side, e[side]), e[side]["collision_rate"]) for e in evals]
+        summary = json.loads((out / "summary.json").read_text())
+        rate = summary["this_invocation"]["agent_steps_per_s"]
+    else:
+        points = [(e["train_s"], e["timesteps"], skill(side, e), e["collision_rate"]) for e in evals]
+        summary = json.loads((out / "train_summary.json").read_text())
+        rate = summary["timesteps_per_s"]
+    return {"points": points, "agent_steps_per_s": rate}
+
+
+def first_reaching(points: list, level: float) -> dict | None:
+    for train_s, steps, value, collisions in points:
+        if value >= level:
+            return {"train_s": train_s, "agent_steps": steps, "collision_rate": collisions}
+    return None
+
+
+def spread(values: list[float]) -> dict | None:
+    return {"median": statistics.median(values), "min": min(values), "max": max(values)} if values else None
+
+
+def summarise(runs: list[dict]) -> dict:
+    out = {"seeds": len(runs), "agent_steps_per_s": spread([r["agent_steps_per_s"] for r in runs]),
+           "final_skill": spread([r["points"][-1][2] for r in runs]), "final_collision_rate": spread([r["points"][-1][3] for r in runs])}
+    for level in LEVELS:
+        hits = [first_reaching(r["points"], level) for r in runs]
+        reached = [h for h in hits if h is not None]
+        out[f"reach_{int(level * 100)}"] = {
+            "reached": f"{len(reached)}/{len(runs)}",
+            "minutes": spread([h["train_s"] / 60 for h in reached]),
+            "agent_steps": spread([h["agent_steps"] for h in reached]),
+        }
+    return out
+
+
+def table(doc: dict) -> str:
+    what = "capture vs escape" if doc["side"] == "wolves" else "survival vs seed000"
+    lines = [f"{doc['side']}, {what}; {doc['minutes']} min per run, seeds {doc['seed_list']}; {doc['machine'].get('cpu', '')}",
+             "| trainer | agent-steps/s | final skill | " + " | ".join(f"to {int(100 * l)} % (min; reached)" for l in LEVELS) + " |",
+             "|---|---|---|" + "---|" * len(LEVELS)]
+    for trainer, s in doc["trainers"].items():
+        rate = s["agent_steps_per_s"]
+        cells = [trainer, f"{rate['median'] / 1000:.1f}k ({rate['min'] / 1000:.1f}–{rate['max'] / 1000:.1f}k)",
+                 f"{100 * s['final_skill']['median']:.1f} % ({100 * s['final_skill']['min']:.1f}–{100 * s['final_skill']['max']:.1f})"]
+        for level in LEVELS:
+            r = s[f"reach_{int(level * 100)}"]
+            m = r["minutes"]
+            cells.append(f"{m['median']:.1f} ({m['min']:.1f}–{m['max']:.1f}); {r['reached']}" if m else f"—; {r['reached']}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--side", choices=("wolves", "targets"), default="wolves")
+    p.add_argument("--algo", choices=("ippo", "mappo"), default="mappo", help="the native trainer's algorithm (default mappo)")
+    p.add_argument("--trainers", nargs="+", choices=TRAINERS, default=list(TRAINERS))
+    p.add_argument("--minutes", type=float, default=15.0, help="time limit of every run (default 15)")
+    p.add_argument("--seeds", type=int, default=5, help="training seeds 0 .. N-1 (default 5)")
+    p.add_argument("--first-seed", type=int, default=0)
+    p.add_argument("--evaluations", type=int, default=30, help="held-out evaluations per run (default 30)")
+    p.add_argument("--eval-episodes", type=int, default=200, help="episodes per held-out evaluation (default 200)")
+    p.add_argument("--device", default="cpu", help="the native trainer's --device (default cpu)")
+    p.add_argument("--keep", default=None, metavar="DIR", help="keep every run's folder under DIR (default: a temporary folder)")
+    p.add_argument("--json", action="store_true", help="print the JSON document instead of the table")
+    p.add_argument("--out", default=None, help="also write the JSON document here")
+    args = p.parse_args(argv)
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    doc = {"side": args.side, "algo": args.algo, "minutes": args.minutes, "seed_list": seeds, "evaluations": args.evaluations,
+           "eval_episodes": args.eval_episodes, "machine": machine_info(), "started": time.strftime("%Y-%m-%d %H:%M:%S"), "trainers": {}, "runs": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        base = Path(args.keep) if args.keep else Path(scratch)
+        for trainer in args.trainers:
+            runs = []
+            for seed in seeds:
+                out = base / f"{trainer}_{args.side}_{args.algo if trainer == 'native' else 'ppo'}_s{seed}"
+                cmd = command(trainer, args.side, args.algo, seed, args.minutes, out, args.evaluations, args.eval_episodes, args.device)
+                print(f"[{time.strftime('%H:%M:%S')}] {trainer} seed {seed}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
+                done = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                if done.returncode != 0:
+                    print(done.stderr[-2000:], file=sys.stderr)
+                    return done.returncode
+                runs.append(read_run(trainer, args.side, out))
+            doc["runs"][trainer] = runs
+            doc["trainers"][trainer] = summarise(runs)
+    text = json.dumps(doc, indent=1)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
+    print(text if args.json else table(doc))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
