@@ -226,3 +226,42 @@ def test_an_existing_run_is_never_overwritten_and_resume_checks_the_configuratio
     result = cli("train", "--side", "wolves", "--out", out, "--time-limit", "1", "--resume", "--set", "world.max_steps=50")
     assert result.returncode == 2 and "another params" in result.stderr, result.stderr
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+
+def test_imitation_warm_start_clones_the_law_then_trains_with_ppo(tmp_path):
+    import yaml
+
+    out = tmp_path / "im"
+    summary = train("wolves", "ippo", out=out, timesteps=2_000, imitate_min=0.05, overrides=SHORT, hp=TINY, threads=1, torch_threads=1,
+                    eval_episodes=4, device="cpu", progress=False)
+    rounds = json.loads((out / "imitation.json").read_text())
+    assert rounds[0]["beta"] == 1.0 and rounds[0]["samples"]["wolves"] == 8 * 16 * 5  # round 0: the law drives, every sample kept
+    assert all(r["loss"]["wolves"] >= 0 for r in rounds)
+    phases = [e["phase"] for e in json.loads((out / "evaluations.json").read_text())]
+    assert phases[0] == "imitation" and set(phases[1:]) == {"ppo"}
+    # The critic learns alone first: the actor's loss terms are not applied for 3 updates.
+    table = rows(out / "progress.csv")
+    assert summary["updates"] == len(table) >= 4
+    assert yaml.safe_load((out / "config.yaml").read_text())["imitate_min"] == 0.05
+
+
+def test_imitation_fits_the_actor_to_the_law(tmp_path):
+    """A few rounds on a tiny batch bring the clone's actions closer to the law's than the
+    untrained actor's were, on states the law itself visits."""
+    from wolfpack.learn.imitation import imitate
+    from wolfpack.learn.trainer import Trainer, TrainSpec
+
+    params = wolfpack.load_params(overrides=SHORT)
+    spec = TrainSpec(learners="wolves", algo="ippo", params=params, recipes={"wolves": recipe("wolves", "ippo", {**TINY, "num_envs": 32, "hidden": [64, 64]})}, threads=1, torch_threads=1, timesteps=1)
+    trainer = Trainer(spec, tmp_path / "t", progress=False)
+    probe = wolfpack.BatchEnv(params, num_envs=16, seed=77, threads=1)
+    out = probe.reset()
+    obs, expert = out["obs_wolves"], probe.expert_actions()[0]
+
+    def error():
+        return float(np.mean((trainer.learners["wolves"].policy()(obs) - np.clip(expert, -1, 1)) ** 2))
+
+    before = error()
+    rounds = imitate(trainer, 1.0, lambda: 0.0, max_rounds=4)  # a clock that stands still: four whole rounds
+    assert [r["beta"] for r in rounds] == [1.0, 0.5, 0.25, 0.125]
+    assert error() < 0.7 * before, (before, error())

@@ -24,6 +24,10 @@ the agent's own observation. --side both: wolves and targets learn together in t
 worlds, each side with its own networks and optimiser; otherwise the other side follows
 --opponent (a law's name or a saved model; default: its law in params).
 
+--imitate MINUTES first clones each learning side's scripted law (params policies.<side>, the
+laws' actions from BatchEnv.expert_actions()) into the same actor with DAgger, then trains it
+with PPO (the critic alone for the first 3 updates); its minutes count in the time limit.
+
 Hyperparameters: the packaged recipes (wolfpack/learn/recipes.yaml; one per side and
 algorithm, the defaults measured best), each key changed with --hp KEY=VALUE. Observations
 and returns are normalised by running statistics saved with the model; the policy is a Gaussian
@@ -45,7 +49,8 @@ Writes into --out DIR (a new or empty folder; --resume continues the run there):
   progress.csv                 one row per update: wall_s, agent_steps, agent_steps_per_s,
                                outcome rates, per side return, losses, entropy, KL, and the
                                held-out evaluations; TensorBoard events beside it
-  evaluations.json             every held-out evaluation
+  evaluations.json             every held-out evaluation (after imitation too: phase)
+  imitation.json               with --imitate: each DAgger round (beta, samples, loss)
   checkpoints/<agent steps>/   models and resume state; trainer.pt the latest state
   summary.json                 agent steps, wall time, throughput, the final evaluation
 Ctrl-C saves the models as they are and exits with status 130."""
@@ -78,6 +83,7 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, 256), default=None, help="the batch's worker threads (default: the recipe's choice for this machine, see --help's text)")
     p.add_argument("--torch-threads", metavar="T", type=_int_at_least(1, 256), default=None, help="torch's threads (default: all cores; the batch and torch take turns, never run together)")
     p.add_argument("--eval-episodes", metavar="K", type=_int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
+    p.add_argument("--imitate", metavar="MIN", type=_positive_minutes, default=None, help="first clone each learning side's scripted law (params policies.<side>) for this many minutes with DAgger, then PPO; part of the time limit")
     p.add_argument("--evaluations", metavar="K", type=_int_at_least(1), default=10, help="held-out evaluations per budget, evenly spread (default 10), and one at the end")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest state (its configuration must match)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -93,7 +99,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     summary = run_training(
         learners=args.side, algo=args.algo, out=args.out, time_limit_min=args.time_limit, timesteps=args.timesteps, seed=args.seed,
         params=args.params, overrides=overrides, hp=hp, opponent=args.opponent, device=args.device, threads=args.threads,
-        torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, evaluations=args.evaluations, resume=args.resume, progress=not args.no_progress,
+        torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, evaluations=args.evaluations, imitate_min=args.imitate, resume=args.resume, progress=not args.no_progress,
         command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
     )
     final = summary.get("final_evaluation") or {}
@@ -155,7 +161,7 @@ def _short(v: Any) -> str:
 
 
 def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, opponent, device: str,
-                 threads, torch_threads, eval_episodes: int, resume: bool, evaluations: int = 10, progress: bool, command: str) -> dict:
+                 threads, torch_threads, eval_episodes: int, resume: bool, evaluations: int = 10, imitate_min: float | None = None, progress: bool, command: str) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
     if learners not in LEARNERS:
         raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
@@ -165,6 +171,10 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         raise ValueError("give a budget: --time-limit MINUTES and/or --timesteps N")
     if time_limit_min is not None and not (time_limit_min > 0):
         raise ValueError(f"--time-limit must be > 0 minutes, got {time_limit_min}")
+    if imitate_min is not None and not (imitate_min > 0):
+        raise ValueError(f"--imitate must be > 0 minutes, got {imitate_min}")
+    if imitate_min is not None and time_limit_min is not None and imitate_min >= time_limit_min:
+        raise ValueError(f"--imitate {imitate_min:g} must be shorter than --time-limit {time_limit_min:g}: imitation is part of the time limit")
     if opponent is not None and learners == "both":
         raise ValueError("--opponent: with --side both there is no other side for it to drive")
     try:
@@ -189,7 +199,7 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
     cores_env, cores_torch = default_threads()
     spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=str(opponent) if opponent is not None else None,
                      timesteps=timesteps, time_limit_min=time_limit_min, threads=threads or cores_env, torch_threads=torch_threads or cores_torch,
-                     device=device, eval_episodes=eval_episodes, evaluations=evaluations, command=command)
+                     device=device, eval_episodes=eval_episodes, evaluations=evaluations, imitate_min=imitate_min, command=command)
     out = Path(out)
     prepare_out(out, resume, spec.identity())
     torch.set_num_threads(spec.torch_threads)
@@ -204,6 +214,6 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
 
         out.mkdir(parents=True, exist_ok=True)
         config = {**spec.identity(), "trainer": "wolfpack train", "timesteps": timesteps, "time_limit_min": time_limit_min, "threads": spec.threads,
-                  "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "evaluations": evaluations, "command": command, "versions": versions()}
+                  "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "evaluations": evaluations, "imitate_min": imitate_min, "command": command, "versions": versions()}
         (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
     return trainer.run()

@@ -131,10 +131,10 @@ class SideLearner:
         for group in self.optimizer.param_groups:
             group["lr"] = lr
 
-    def update(self) -> dict[str, float]:
-        """PPO's clipped update over the rollout: ``epochs`` passes of shuffled minibatches.
-        Returns the mean losses, entropy, approximate KL, clip fraction and explained
-        variance."""
+    def update(self, train_actor: bool = True) -> dict[str, float]:
+        """PPO's clipped update over the rollout: ``epochs`` passes of shuffled minibatches
+        (``train_actor=False``: the critic's loss alone, the actor left as it is). Returns the
+        mean losses, entropy, approximate KL, clip fraction and explained variance."""
         rc = self.recipe
         clip, clip_v = float(rc["clip"]), rc["clip_value"]
         ent_coef, vf_coef, max_norm = float(rc["ent_coef"]), float(rc["vf_coef"]), float(rc["max_grad_norm"])
@@ -167,7 +167,7 @@ class SideLearner:
                 else:
                     value_loss = 0.5 * ((v - ret[idx]) ** 2).mean()
                 entropy = self.actor.entropy()
-                loss = policy_loss - ent_coef * entropy + vf_coef * value_loss
+                loss = policy_loss - ent_coef * entropy + vf_coef * value_loss if train_actor else vf_coef * value_loss
                 self.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 nn.utils.clip_grad_norm_(self.params, max_norm)

@@ -71,6 +71,7 @@ class TrainSpec:
     device: str = "cpu"
     eval_episodes: int = 100
     evaluations: int = 10
+    imitate_min: float | None = None
     command: str = ""
     extra: dict = field(default_factory=dict)
 
@@ -82,6 +83,7 @@ class TrainSpec:
         """What must match for ``--resume`` to continue a run: the sides, algorithm, opponent,
         params, recipes and seed."""
         return {"learners": self.learners, "algo": self.algo, "opponent": self.opponent, "params": self.params, "recipes": self.recipes, "seed": self.seed}
+
 
 
 def versions() -> dict:
@@ -192,14 +194,24 @@ class Trainer:
             evals_done = int(self.agent_steps / spec.timesteps * self.spec.evaluations)
             ckpts_done = int(self.agent_steps / spec.timesteps * self.CHECKPOINTS)
 
-        out = self.env.reset()
-        ep_return = {side: np.zeros(self.num_envs) for side in spec.sides}
         t_start = time.perf_counter()
         eval_s = 0.0
         steps_at_start = self.agent_steps
         interrupted = False
         stats: dict = {}
+        critic_only = 0
         try:
+            if spec.imitate_min and self.updates == 0:
+                from wolfpack.learn.imitation import imitate
+
+                rounds = imitate(self, spec.imitate_min, lambda: time.perf_counter() - t_start - eval_s)
+                te = time.perf_counter()
+                self._evaluate(time.perf_counter() - t_start - eval_s, phase="imitation")
+                eval_s += time.perf_counter() - te
+                (self.out / "imitation.json").write_text(json.dumps(rounds, indent=1) + "\n")
+                critic_only = self.CRITIC_WARMUP_UPDATES
+            out = self.env.reset()
+            ep_return = {side: np.zeros(self.num_envs) for side in spec.sides}
             while True:
                 train_s = time.perf_counter() - t_start - eval_s
                 fraction = self._fraction_done(train_s)
@@ -229,7 +241,8 @@ class Trainer:
                 t1 = time.perf_counter()
                 for side, learner in self.learners.items():
                     learner.set_learning_rate(self._learning_rate(side, fraction))
-                    stats[side] = learner.update()
+                    stats[side] = learner.update(train_actor=critic_only == 0)
+                critic_only = max(critic_only - 1, 0)
                 t2 = time.perf_counter()
                 self.updates += 1
                 self.agent_steps += self.agents_per_step * self.n_steps
@@ -284,6 +297,10 @@ class Trainer:
     #: budget, and at the end.
     CHECKPOINTS = 5
 
+    #: PPO updates after an imitation warm start in which only the critics learn: the cloned
+    #: actor meets a critic that has seen its returns before any policy gradient moves it.
+    CRITIC_WARMUP_UPDATES = 3
+
     def _bar_position(self, train_s: float) -> int:
         return int(1000 * min(self._fraction_done(train_s), 1.0))
 
@@ -312,12 +329,12 @@ class Trainer:
 
     # --- evaluation --------------------------------------------------------------------------------
 
-    def _evaluate(self, train_s: float) -> dict:
+    def _evaluate(self, train_s: float, phase: str = "ppo") -> dict:
         """Each learning side, deterministic, on the held-out episodes HELD_OUT_SEED + k against
         the opponent it trains against (both sides learning: the other side's law in params).
         ``train_s``: the run's training seconds so far (evaluations excluded)."""
         row = {}
-        record = {"agent_steps": self.agent_steps, "update": self.updates, "train_s": train_s}
+        record = {"agent_steps": self.agent_steps, "update": self.updates, "train_s": train_s, "phase": phase}
         for side, learner in self.learners.items():
             policy = learner.policy()
             opponent = self.spec.opponent if self.spec.learners != "both" else None
