@@ -265,3 +265,43 @@ def test_imitation_fits_the_actor_to_the_law(tmp_path):
     rounds = imitate(trainer, 1.0, lambda: 0.0, max_rounds=4)  # a clock that stands still: four whole rounds
     assert [r["beta"] for r in rounds] == [1.0, 0.5, 0.25, 0.125]
     assert error() < 0.7 * before, (before, error())
+
+
+def test_seeds_report_gives_the_interquartile_mean_with_a_bootstrap_interval(tmp_path):
+    sys.path.insert(0, str(TRAINING))
+    import seeds
+
+    s = seeds.iqm_interval([0.1, 0.2, 0.3, 0.4, 1.0])
+    assert s["iqm"] == pytest.approx(0.3)  # the middle three of five: the outlier 1.0 does not move it
+    assert s["median"] == 0.3 and (s["min"], s["max"]) == (0.1, 1.0)
+    assert 0.1 <= s["ci95"][0] <= 0.3 <= s["ci95"][1] <= 1.0 and s["ci95"][0] < s["ci95"][1]
+    assert seeds.iqm_interval([0.5, 0.5])["ci95"] == [0.5, 0.5]
+    runs = [tmp_path / f"s{k}" for k in range(2)]
+    for k, run in enumerate(runs):
+        tiny_train(run, seed=k, timesteps=700)
+    dest = tmp_path / "report"
+    assert seeds.main(["--episodes", "3", "--against", "bvc", "--out", str(dest), *map(str, runs)]) == 0
+    doc = json.loads((dest / "seeds.json").read_text())
+    assert set(doc["opponents"]) == {"escape", "bvc"} and doc["opponents"]["escape"]["skill"]["n"] == 2
+    assert (dest / "curves.png").is_file() and "IQM" in (dest / "seeds.md").read_text()
+
+
+def test_ctrl_c_stops_promptly_and_keeps_the_models(tmp_path):
+    import signal
+    import subprocess
+    import time
+
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "wolfpack.cli", "train", "--side", "wolves", "--time-limit", "30", "--threads", "1", "--torch-threads", "1",
+                             "--hp", "num_envs=8", "--hp", "n_steps=16", "--hp", "minibatch_size=64", "--eval-episodes", "2", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not ((out / "progress.csv").is_file() and len(rows(out / "progress.csv")) >= 2):
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1] == "wolfpack: interrupted" and stdout == ""
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped_by"] == "interrupt" and summary["updates"] >= 2
+    assert load_policy(out).obs_dim == before_dim()

@@ -1,0 +1,143 @@
+"""Learned results over training seeds, reported as the field expects.
+
+    python training/seeds.py --out results/learned/wolves_mappo runs/ls/native_wolves_mappo_s*
+    python training/seeds.py --against results/models/escape_ppo --against results/league --out DIR RUN ...
+
+Each RUN is one training seed's run folder of ``wolfpack train`` (one side learning). Every
+final model is evaluated deterministically on the same episodes (``--seed S``: worlds S, S+1,
+..., the episodes of ``wolfpack hunt --seed S``) against the opponent it trained with, and
+against every ``--against`` policy (a law's name, a model path, or a selfplay.py league folder:
+its learned members of the other side). Over the seeds: the interquartile mean (IQM, the mean of
+the middle half; ``scipy.stats.trim_mean`` with 25 % cut at each end, as rliable computes it)
+with a 95 % percentile bootstrap interval over seeds (``scipy.stats.bootstrap``, 10,000
+resamples), the median and the range. Per seed and opponent the per-episode 95 % Wilson
+interval stays in the JSON.
+
+Writes into --out: seeds.json (every row), seeds.md (the table) and curves.png (the held-out
+evaluations during training against training minutes: median over seeds with the range
+shaded, capture or survival and wolf collisions).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import numpy as np  # noqa: E402
+
+from common import UsageError, load_model, play, prepare_out, report, seed_int, positive_int  # noqa: E402
+from evaluate import expand_models  # noqa: E402
+
+OTHER = {"wolves": "targets", "targets": "wolves"}
+
+
+def iqm_interval(values: list[float], resamples: int = 10_000) -> dict:
+    """IQM, its 95 % percentile bootstrap interval over the values, median, min, max."""
+    from scipy import stats
+
+    x = np.asarray(values, dtype=float)
+    iqm = float(stats.trim_mean(x, 0.25))
+    if len(x) > 1 and np.ptp(x) > 0:
+        boot = stats.bootstrap((x,), lambda a, axis: stats.trim_mean(a, 0.25, axis=axis), confidence_level=0.95, n_resamples=resamples, method="percentile", rng=np.random.default_rng(0))
+        lo, hi = float(boot.confidence_interval.low), float(boot.confidence_interval.high)
+    else:
+        lo = hi = iqm
+    return {"iqm": iqm, "ci95": [lo, hi], "median": float(np.median(x)), "min": float(x.min()), "max": float(x.max()), "n": int(len(x))}
+
+
+def opponents_of(side: str, specs: list[str]) -> list:
+    """The --against policies of the other side: laws by name, models loaded, leagues expanded."""
+    out = []
+    for spec in specs:
+        if not Path(spec).exists():
+            out.append(spec)
+            continue
+        for path in expand_models([spec]):
+            m = load_model(path)
+            if m.side == OTHER[side]:
+                out.append(m)
+    return out
+
+
+def skill(side: str, row: dict) -> float:
+    return row["capture_rate"] if side == "wolves" else row["survival_rate"]
+
+
+def curves(out: Path, runs: list[Path], side: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = []
+    for run in runs:
+        evals = [e for e in json.loads((run / "evaluations.json").read_text()) if e.get("phase", "ppo") == "ppo"]
+        series.append((np.array([e["train_s"] / 60 for e in evals]), np.array([skill(side, e[side]) for e in evals]), np.array([e[side]["collision_rate"] for e in evals])))
+    grid = np.linspace(max(s[0][0] for s in series), min(s[0][-1] for s in series), 60)
+    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    what = "captured (held-out)" if side == "wolves" else "survived (held-out)"
+    for k, (label, colour) in enumerate(((what, "tab:blue"), ("wolf collisions", "tab:red"))):
+        ys = np.array([np.interp(grid, t, v, left=np.nan) for t, *vals in series for v in [vals[k]]])
+        ax.plot(grid, 100 * np.nanmedian(ys, axis=0), color=colour, label=f"{label}: median of {len(series)} seeds")
+        ax.fill_between(grid, 100 * np.nanmin(ys, axis=0), 100 * np.nanmax(ys, axis=0), color=colour, alpha=0.2, label=f"{label}: range")
+    ax.set_xlabel("training wall time (min, evaluations excluded)")
+    ax.set_ylabel("% of held-out episodes")
+    ax.set_ylim(0, 100)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="center right")
+    ax.set_title(f"{side}: {len(series)} training seeds, {series[0][0].size} evaluations each", fontsize=10)
+    fig.savefig(out / "curves.png", dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="seeds.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("runs", nargs="+", metavar="RUN", help="run folders of wolfpack train, one per training seed")
+    p.add_argument("--episodes", type=positive_int, default=200, help="episodes per evaluation (default 200)")
+    p.add_argument("--seed", type=seed_int, default=0, help="first episode seed (default 0: wolfpack hunt's episodes)")
+    p.add_argument("--against", action="append", default=[], metavar="POLICY", help="also evaluate against this law, model or league (repeatable)")
+    p.add_argument("--out", required=True, help="output folder")
+    args = p.parse_args(argv)
+    try:
+        models = [load_model(r) for r in args.runs]
+        sides = {m.side for m in models}
+        if len(sides) != 1:
+            raise UsageError(f"the runs are of different sides ({', '.join(sorted(sides))}); give one side's runs")
+        side = sides.pop()
+        against = opponents_of(side, args.against)
+        out = prepare_out(args.out)
+    except (UsageError, ValueError) as e:
+        print(f"seeds.py: error: {e}", file=sys.stderr)
+        return 2
+    per_opponent: dict[str, list[dict]] = {}
+    for m in models:
+        trained_against = m.params["policies"][OTHER[side]]
+        for opp in [trained_against, *against]:
+            pair = (m, opp) if side == "wolves" else (opp, m)
+            row = report(play(m.params, *pair, episodes=args.episodes, seed=args.seed), *(x if isinstance(x, str) else x.label for x in pair))
+            row.pop("capture_steps")
+            name = opp if isinstance(opp, str) else opp.label
+            per_opponent.setdefault(name, []).append({"run": str(m.path.parent), **row})
+    doc = {"side": side, "episodes": args.episodes, "first_seed": args.seed, "runs": [str(Path(r)) for r in args.runs], "opponents": {}}
+    lines = [f"{side}, {len(models)} training seeds, {args.episodes} episodes (seeds {args.seed}–{args.seed + args.episodes - 1}) per model and opponent, deterministic",
+             "", f"| opponent | {'capture' if side == 'wolves' else 'survival'} IQM [95 % CI] | median (range) | wolf collisions IQM [95 % CI] | median capture step |", "|---|---|---|---|---|"]
+    for name, rows in per_opponent.items():
+        s = iqm_interval([skill(side, r) for r in rows])
+        c = iqm_interval([r["collision_rate"] for r in rows])
+        steps = [r["median_capture_steps"] for r in rows if r["median_capture_steps"] is not None]
+        doc["opponents"][name] = {"skill": s, "collision_rate": c, "rows": rows}
+        lines.append(f"| {name} | {100 * s['iqm']:.1f} % [{100 * s['ci95'][0]:.1f}, {100 * s['ci95'][1]:.1f}] | {100 * s['median']:.1f} % ({100 * s['min']:.1f}–{100 * s['max']:.1f}) "
+                     f"| {100 * c['iqm']:.1f} % [{100 * c['ci95'][0]:.1f}, {100 * c['ci95'][1]:.1f}] | {np.median(steps) if steps else '—'} |")
+    (out / "seeds.json").write_text(json.dumps(doc, indent=1) + "\n")
+    (out / "seeds.md").write_text("\n".join(lines) + "\n")
+    curves(out, [Path(r) for r in args.runs], side)
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
