@@ -280,9 +280,9 @@ def test_seeds_report_gives_the_interquartile_mean_with_a_bootstrap_interval(tmp
     for k, run in enumerate(runs):
         tiny_train(run, seed=k, timesteps=700)
     dest = tmp_path / "report"
-    assert seeds.main(["--episodes", "3", "--against", "bvc", "--out", str(dest), *map(str, runs)]) == 0
+    assert seeds.main(["--episodes", "3", "--against", "random", "--out", str(dest), *map(str, runs)]) == 0
     doc = json.loads((dest / "seeds.json").read_text())
-    assert set(doc["opponents"]) == {"escape", "bvc"} and doc["opponents"]["escape"]["skill"]["n"] == 2
+    assert set(doc["opponents"]) == {"escape", "random"} and doc["opponents"]["escape"]["skill"]["n"] == 2
     assert (dest / "curves.png").is_file() and "IQM" in (dest / "seeds.md").read_text()
 
 
