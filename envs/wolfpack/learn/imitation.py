@@ -15,7 +15,6 @@ so every time-to-skill figure includes them.
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import torch
