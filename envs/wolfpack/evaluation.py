@@ -40,7 +40,6 @@ def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tup
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-
 def rollout(
     params: dict,
     *,
@@ -56,7 +55,7 @@ def rollout(
     """Runs episodes ``seed .. seed + episodes − 1`` (episode k is world ``seed + k``'s first
     episode, the very episode ``wolfpack hunt --seed seed`` runs as its k-th) with the given
     policies for the learning sides and the scripted laws of ``params`` for the others (or, when
-one side is given a policy, ``opponent`` for the other: anything ``BatchEnv(opponent=)`` takes).
+    one side is given a policy, ``opponent`` for the other: anything ``BatchEnv(opponent=)`` takes).
 
     Returns one dict per episode with ``wolfpack.summarize``'s fields (``seed``, ``outcome``,
     ``steps``, ``capture_step``, ``cornered_step`` (first step a target was cornered, or None),
@@ -106,8 +105,6 @@ one side is given a policy, ``opponent`` for the other: anything ``BatchEnv(oppo
         if progress is not None:
             progress(count)
     return results
-
-
 
 
 def report(results: list[dict], wolves: str, targets: str) -> dict:

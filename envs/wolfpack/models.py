@@ -142,12 +142,13 @@ class NativePolicy(SavedPolicy):
 
         if self.actor.agent_id and x.shape[0] % self.actor.agents:
             raise ValueError(f"model {self.name!r} uses agent ids: give whole worlds ({self.actor.agents} rows each), got {x.shape[0]} rows")
+        if deterministic:
+            return self.actor.deterministic(torch.from_numpy(x)).numpy()
         with torch.no_grad():
             mean = self.actor.mean(self.actor.norm(torch.from_numpy(x))).numpy()
             std = self.actor.log_std.exp().numpy()
-        if not deterministic:
-            rng = rng if rng is not None else np.random.default_rng()
-            mean = mean + std * rng.standard_normal(mean.shape).astype(np.float32)
+        rng = rng if rng is not None else np.random.default_rng()
+        mean = mean + std * rng.standard_normal(mean.shape).astype(np.float32)
         return np.clip(mean, -1.0, 1.0).astype(np.float32, copy=False)
 
 

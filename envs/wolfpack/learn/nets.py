@@ -38,9 +38,13 @@ class RunningNorm(nn.Module):
         self._n = 0
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        if not self.enabled:
-            return x
-        return ((x - self.shift) * self.scale).clamp_(-self.clip, self.clip)
+        return self.normalise_(x.clone()) if self.enabled else x
+
+    def normalise_(self, x: torch.Tensor) -> torch.Tensor:
+        """Normalises ``x`` in place (a rollout buffer's row) and returns it."""
+        if self.enabled:
+            x.sub_(self.shift).mul_(self.scale).clamp_(-self.clip, self.clip)
+        return x
 
     def accumulate(self, x: torch.Tensor) -> None:
         """Adds rows ``x`` [..., dim] to the pending statistics."""
@@ -114,6 +118,11 @@ class Actor(nn.Module):
     def mean(self, normed_obs: torch.Tensor) -> torch.Tensor:
         """The Gaussian's mean for already normalised observations [..., D]."""
         return self.body(self.inputs(normed_obs))
+
+    @torch.no_grad()
+    def deterministic(self, obs: torch.Tensor) -> torch.Tensor:
+        """The deterministic action for raw observation rows [n, D]: the clipped mean."""
+        return self.mean(self.norm(obs)).clamp(-1.0, 1.0)
 
     def log_prob(self, mean: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """log π(a) summed over the two entries."""

@@ -64,8 +64,7 @@ class SideLearner:
         out.copy_(torch.from_numpy(raw))  # the one copy: the batch's array into the buffer (and onto the device)
         if count:
             norm.accumulate(out)
-        if norm.enabled:
-            out.sub_(norm.shift).mul_(norm.scale).clamp_(-norm.clip, norm.clip)
+        norm.normalise_(out)
 
     @torch.no_grad()
     def act(self, t: int, obs: np.ndarray, state: np.ndarray | None) -> np.ndarray:
@@ -207,15 +206,12 @@ class SideLearner:
         self.optimizer.load_state_dict(state["optimizer"])
         self.return_norm.load_state_dict(state["return_norm"])
 
-    @torch.no_grad()
-    def policy(self, deterministic: bool = True):
+    def policy(self):
         """The current policy as a numpy callable ``obs [..., D] -> actions [..., 2]`` (the
         clipped mean), for evaluations during training."""
 
         def act(obs: np.ndarray) -> np.ndarray:
             x = torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32)).to(self.device)
-            with torch.no_grad():
-                mean = self.actor.mean(self.actor.norm(x.reshape(-1, x.shape[-1])))
-            return mean.clamp(-1.0, 1.0).cpu().numpy().reshape(*obs.shape[:-1], 2)
+            return self.actor.deterministic(x.reshape(-1, x.shape[-1])).cpu().numpy().reshape(*obs.shape[:-1], 2)
 
         return act
