@@ -17,6 +17,10 @@ target's sensing radius (positions before that step's move).
 With both sides learning, no scripted law marks the interaction matrix, so the last step's
 matrix holds the sensing entries only: wolf i → target j when d ≤ r_w, target j → wolf i when
 d ≤ r_t, from the positions before that step's move (all zero after reset).
+
+The pack's last sighting of a target (``env.last_sighting``) is where it stood in the latest
+observed state (after reset, or after a step's move) in which some wolf was within r_w of it:
+the same distances as the wolf's own "sensed" entries.
 """
 
 from __future__ import annotations
@@ -130,7 +134,27 @@ def sensing(p, ws):
     return mat
 
 
-def expected_obs(p, ws, t_seen, row_matrix, stats):
+def note_sightings(p, ws, sighting):
+    """Updates ``sighting[j]`` = (x, y, step) for every target some wolf senses in ``ws``."""
+    for j, tg in enumerate(ws["targets"]):
+        if np.any(np.hypot(*(ws["wolves"][:, :2] - tg[:2]).T) <= p["agents"]["wolf"]["sense_radius"]):
+            sighting[j] = (tg[0], tg[1], ws["step"])
+
+
+def sighting_block(me, sighting, S, T, t):
+    """Per target: sighted, dx/S, dy/S (wolf frame), age / max_steps; zeros before the first."""
+    out = []
+    for s in sighting:
+        if s is None:
+            out += [0.0] * 4
+            continue
+        dx, dy = s[0] - me[0], s[1] - me[1]
+        c, si = math.cos(me[2]), math.sin(me[2])
+        out += [1.0, (c * dx + si * dy) / S, (-si * dx + c * dy) / S, (t - s[2]) / T]
+    return out
+
+
+def expected_obs(p, ws, t_seen, row_matrix, stats, sighting=()):
     """Every agent's observation for world state ``ws`` (docstring table, row by row)."""
     wp, tp, env = p["agents"]["wolf"], p["agents"]["target"], p["env"]
     border, T, t = p["world"]["border"], p["world"]["max_steps"], ws["step"]
@@ -164,6 +188,9 @@ def expected_obs(p, ws, t_seen, row_matrix, stats):
         for h in range(3):
             stats[("wall", "circle", "polygon")[h]] += int(np.sum((hits == h) & (np.array(ray) < 1)))
         stats["inside"] += int(np.sum(np.array(ray) == 0))
+        if env["last_sighting"] and a.startswith("wolf"):
+            out[a] += sighting_block(me, sighting, S, T, t)
+            stats["sighting_away"] += sum(s is not None and s[2] < t for s in sighting)
         if env["interaction_row"]:
             out[a] += list(row_matrix[k])
     return {a: np.array(v) for a, v in out.items()}
@@ -203,7 +230,7 @@ def expected_rewards(p, before, after, infos_before, infos_after, agents):
 
 def new_stats():
     keys = ("steps", "wolf_sensed", "partner_senses", "target_masked", "cap_below_1", "wall", "circle", "polygon", "inside",
-            "captures", "wolf_collisions", "target_collisions", "row_ones")
+            "captures", "wolf_collisions", "target_collisions", "row_ones", "sighting_away")
     return dict.fromkeys(keys, 0)
 
 
@@ -219,16 +246,18 @@ def run(env, seed, steps, expert_share, stats, layout=None, actions=None):
     rt = p["agents"]["target"]["sense_radius"]
     obs, infos = env.reset(seed=seed, options={"layout": layout} if layout else None)
     ws = u.world_state()
-    t_seen = [None] * m
+    t_seen, sighting = [None] * m, [None] * m
     zero = np.zeros((n + m, n + m))
-    compare(p, ws, obs, t_seen, zero, stats, ctx=f"seed {seed} reset")
+    note_sightings(p, ws, sighting)
+    compare(p, ws, obs, t_seen, zero, stats, ctx=f"seed {seed} reset", sighting=sighting)
     for t in range(steps):
         if not env.agents:
             if layout is not None:
                 break
             obs, infos = env.reset(seed=seed + 1000 + t)
-            ws, t_seen = u.world_state(), [None] * m
-            compare(p, ws, obs, t_seen, zero, stats, ctx=f"seed {seed} re-reset at {t}")
+            ws, t_seen, sighting = u.world_state(), [None] * m, [None] * m
+            note_sightings(p, ws, sighting)
+            compare(p, ws, obs, t_seen, zero, stats, ctx=f"seed {seed} re-reset at {t}", sighting=sighting)
             continue
         expert = u.expert_actions()
         act = {}
@@ -248,7 +277,8 @@ def run(env, seed, steps, expert_share, stats, layout=None, actions=None):
         rows = sensing(p, ws)
         obs, rewards, terms, truncs, infos_after = env.step(act)
         after = u.world_state()
-        compare(p, after, obs, t_seen, rows, stats, ctx=f"seed {seed} step {after['step']}")
+        note_sightings(p, after, sighting)
+        compare(p, after, obs, t_seen, rows, stats, ctx=f"seed {seed} step {after['step']}", sighting=sighting)
         want = expected_rewards(p, ws, after, infos, infos_after, agents)
         assert set(rewards) == set(agents)
         got_r = np.array([rewards[a] for a in agents])
@@ -264,8 +294,8 @@ def run(env, seed, steps, expert_share, stats, layout=None, actions=None):
     return stats
 
 
-def compare(p, ws, obs, t_seen, rows, stats, ctx):
-    want = expected_obs(p, ws, t_seen, rows, stats)
+def compare(p, ws, obs, t_seen, rows, stats, ctx, sighting=()):
+    want = expected_obs(p, ws, t_seen, rows, stats, sighting)
     for a, got in obs.items():
         assert got.dtype == np.float32 and got.shape == want[a].shape, (ctx, a, got.shape, want[a].shape)
         bad = np.flatnonzero(np.abs(got - want[a]) > ATOL)
@@ -307,6 +337,19 @@ def test_three_wolves_two_targets_interaction_row_and_lidar_7():
     for seed in range(4):
         run(env, seed, 50, 0.8, stats)
     for key in ("wolf_sensed", "partner_senses", "target_masked", "cap_below_1", "wall", "circle", "polygon", "row_ones"):
+        assert stats[key] > 0, (key, stats)
+
+
+def test_last_sighting_two_targets():
+    """The pack's last sighting (two targets, four wolves, mostly random moves so that targets
+    are lost and found again): every wolf's block against the oracle, with stale sightings seen."""
+    env = wolfpack.parallel_env(learners="all", **{"world.wolves": 4, "world.targets": 2, "env.last_sighting": True})
+    assert env.observation_space("wolf_0").shape == (9 + 5 * 2 + 5 * 3 + 16 + 4 * 2,)
+    assert env.observation_space("target_0").shape == (10 + 5 * 4 + 16,)
+    stats = new_stats()
+    for seed in range(4):
+        run(env, seed, 60, 0.3, stats)
+    for key in ("wolf_sensed", "sighting_away"):
         assert stats[key] > 0, (key, stats)
 
 

@@ -124,7 +124,27 @@ def test_resume_goes_on_from_the_saved_state(tmp_path):
 
 
 def before_dim() -> int:
-    return wolfpack.BatchEnv(num_envs=1).wolf_obs_dim
+    """A wolf's observation size under the wolves' recipes (they add the last sighting)."""
+    return wolfpack.BatchEnv({"env": {"last_sighting": True}}, num_envs=1).wolf_obs_dim
+
+
+def test_the_wolves_recipe_observes_the_last_sighting_and_the_run_can_say_otherwise(tmp_path):
+    plain = wolfpack.BatchEnv(num_envs=1).wolf_obs_dim
+    assert before_dim() == plain + 4
+    tiny_train(tmp_path / "recipe", timesteps=700)
+    model = load_policy(tmp_path / "recipe")
+    assert model.obs_dim == plain + 4 and model.params["env"]["last_sighting"] is True
+    assert model.params["rewards"]["wolves"]["collision_penalty"] == 30.0
+    # As an opponent it switches the last sighting on in worlds whose params leave it off: the
+    # targets learning there observe what they always did.
+    batch = wolfpack.BatchEnv(num_envs=2, learners="targets", opponent=tmp_path / "recipe")
+    assert batch.params["env"]["last_sighting"] is True and batch.target_obs_dim == wolfpack.BatchEnv(num_envs=1, learners="targets").target_obs_dim
+    batch.reset(0)
+    assert np.isfinite(batch.step(None, np.zeros((2, 1, 2), np.float32))["rewards_targets"]).all()
+    tiny_train(tmp_path / "set", timesteps=700, overrides={**SHORT, "env.last_sighting": False})
+    assert load_policy(tmp_path / "set").obs_dim == plain
+    tiny_train(tmp_path / "hp", timesteps=700, hp={**TINY, "env.last_sighting": False})
+    assert load_policy(tmp_path / "hp").obs_dim == plain
 
 
 def test_saved_model_acts_as_the_trainer_did_and_drives_opponent_and_evaluation(both_run, tmp_path):

@@ -34,7 +34,7 @@ from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
 from wolfpack.models import SavedPolicy, load_policy, native_model_folders
-from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode
+from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode, side_observation
 from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, TRAIN_SEED_BASE, Policy, report, rollout, wilson_interval  # noqa: F401  (re-exported for the scripts)
 
 SIDES = ("wolves", "targets")
@@ -341,7 +341,8 @@ def player_name(who) -> str:
 
 def pairing_params(base: dict, wolves, targets) -> dict:
     """``base`` with each side's driver: a law's name sets ``policies.<side>``, a model sets its
-    side's action mode to the model's own (so that models trained in different modes meet)."""
+    side's action mode and observation keys to the model's own (so that models trained in
+    different modes, or with the pack's last sighting, meet)."""
     p = json.loads(json.dumps(base))
     for side, who in (("wolves", wolves), ("targets", targets)):
         if isinstance(who, str):
@@ -350,6 +351,7 @@ def pairing_params(base: dict, wolves, targets) -> dict:
             if who.side != side:
                 raise UsageError(f"{who.label} is a model of the {who.side}, not of the {side}")
             p["env"][mode_key(side)] = who.action_mode
+            p["env"].update(side_observation(who.params, side))
     return _core.validate_params(p)
 
 

@@ -23,7 +23,9 @@ A learned opponent is evaluated once per step for all its agents in all worlds: 
 are those of a scripted opponent; the opponent's observations never appear in the outputs.
 Its actions are read in its own action mode (``env.wolf_action_mode`` /
 ``env.target_action_mode``), so a wolf model trained in velocity mode can meet a target
-model trained in unicycle mode.
+model trained in unicycle mode. Likewise a wolf model trained with the pack's last sighting in
+its observation (``env.last_sighting``) switches it on in the worlds it plays in: it adds to the
+wolves' observations only, so the other side observes what it always did.
 
 Bad opponents are ValueErrors: an observation or action size that does not fit the side it
 drives (both sizes named), an opponent for a side that learns, a callable that returns NaN or
@@ -50,6 +52,18 @@ CONFIG_FILE = "config.yaml"
 def mode_key(side: str) -> str:
     """The params key under ``env`` of ``side``'s own action mode."""
     return "wolf_action_mode" if side == "wolves" else "target_action_mode"
+
+
+#: The learning-interface keys (params ``env.*``) that shape one side's observation only: a model
+#: brings its own values of its side's keys into any world it plays in.
+SIDE_OBSERVATION_KEYS = {"wolves": ("last_sighting",), "targets": ()}
+
+
+def side_observation(params: dict, side: str) -> dict:
+    """``side``'s own observation keys (:data:`SIDE_OBSERVATION_KEYS`) as set in ``params``
+    (a model's training params; a key they lack is off, as in params.yaml)."""
+    env = (params or {}).get("env") or {}
+    return {key: bool(env.get(key, False)) for key in SIDE_OBSERVATION_KEYS[side]}
 
 
 def side_action_mode(params: dict, side: str) -> str:
@@ -160,6 +174,9 @@ class Opponent:
         self.model: Any = None
         self.obs_dim: int | None = None
         self._call: Callable[[np.ndarray], np.ndarray] | None = None
+        #: Its side's observation keys from its training params (a model from a folder).
+        self.observation: dict = {}
+        trained: dict = {}
         mode = action_mode
         if isinstance(policy, Opponent):
             raise TypeError("opponent: already an Opponent (give its policy, or use it as it is)")
@@ -175,6 +192,7 @@ class Opponent:
             self.kind = "model"
             self.model = load_policy(policy, side)
             self.config = self.model.config
+            trained = self.model.params
             side = self.model.side
             if mode is None:
                 mode = self.model.action_mode
@@ -211,6 +229,8 @@ class Opponent:
             self._check_spaces()
         self.side = side
         self.action_mode = mode
+        if side is not None and trained:
+            self.observation = side_observation(trained, side)
         self.name = name or label
 
     def _check_spaces(self) -> None:
@@ -316,5 +336,6 @@ def drivers(params: dict, learners: str, opponent: Opponent | None) -> tuple[str
         return learners, p
     if opponent.action_mode is not None:  # else the params' mode for that side
         p["env"][key] = opponent.action_mode
+    p["env"].update(opponent.observation)
     driven = {"wolves": {"none": "wolves", "targets": "all"}, "targets": {"none": "targets", "wolves": "all"}}[side][learners]
     return driven, p

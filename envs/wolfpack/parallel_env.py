@@ -41,6 +41,10 @@ Observation Space
                                 zero for wolves beyond r (masked)
     next K                      lidar: ray k at θ + 2πk/K, distance to the first obstacle or
                                 wall / ``env.lidar.range`` (1 = nothing within range)
+    **wolf** next 4M (optional) ``env.last_sighting``: per target, the pack's latest sighting:
+                                sighted, dx/S, dy/S (where the target stood the last time
+                                any wolf sensed it, in this wolf's frame), age / max_steps;
+                                all zero before the first sighting
     last N+M (optional)         ``env.interaction_row``: own row of the last step's
                                 interaction matrix (0/1)
     ==========================  ===========================================================

@@ -11,6 +11,9 @@ import yaml
 RECIPES_PATH = Path(__file__).with_name("recipes.yaml")
 LEARNERS = ("wolves", "targets", "both")
 ALGOS = ("ippo", "mappo")
+# Recipe keys that are params overrides rather than hyperparameters: the learning side's reward
+# weights (params rewards.<side>.*) and the learning interface (params env.*).
+PARAMS_SECTIONS = ("rewards", "env")
 
 
 def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> dict:
@@ -21,11 +24,12 @@ def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> 
     table = yaml.safe_load(RECIPES_PATH.read_text())
     r = dict(table["default"])
     r.update((table.get(side) or {}).get(algo) or {})
-    r["rewards"] = dict(r.get("rewards") or {})
+    for section in PARAMS_SECTIONS:
+        r[section] = dict(r.get(section) or {})
     for key, value in (overrides or {}).items():
         head, _, sub = key.partition(".")
-        if head == "rewards" and sub:
-            r["rewards"][sub] = value
+        if head in PARAMS_SECTIONS and sub:
+            r[head][sub] = value
             continue
         if key not in r:
             raise ValueError(f"--hp {key}: no such hyperparameter (known: {', '.join(sorted(r))})")
@@ -57,10 +61,13 @@ def _check(r: dict) -> None:
     for key in ("anneal_lr", "agent_id", "norm_obs", "norm_reward"):
         need(key, isinstance(r[key], bool), "true or false")
     need("rewards", isinstance(r["rewards"], dict), "a mapping of the side's reward keys")
+    need("env", isinstance(r["env"], dict), "a mapping of learning-interface keys (params env.*)")
 
 
-def reward_overrides(side: str, r: dict) -> dict:
-    """The recipe's reward weights as params overrides (``rewards.<side>.<key>``): weights
-    change what the learner is paid, never how an episode ends, so a model trained with them
-    is evaluated on the same outcomes as any other."""
-    return {f"rewards.{side}.{k}": v for k, v in r["rewards"].items()}
+def params_overrides(side: str, r: dict) -> dict:
+    """The recipe's params overrides: its reward weights (``rewards.<side>.<key>``) and its
+    learning-interface keys (``env.<key>``). Neither changes the world or how an episode ends
+    (weights change what the learner is paid, env keys what it observes), so a model trained
+    with them is evaluated on the same outcomes as any other; the saved model's params carry
+    them, so it is loaded with the observation it was trained on."""
+    return {**{f"rewards.{side}.{k}": v for k, v in r["rewards"].items()}, **{f"env.{k}": v for k, v in r["env"].items()}}

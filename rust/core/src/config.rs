@@ -567,11 +567,15 @@ pub struct EnvParams {
     pub lidar: LidarParams,
     /// Append the agent's row of the interaction matrix (N+M entries, 0/1, from the last step).
     pub interaction_row: bool,
+    /// Append to each wolf's observation, per target, the pack's latest sighting of it
+    /// (sighted, dx/S, dy/S in the wolf's frame, age / max_steps): what global communication
+    /// tells a wolf that senses nothing now, and what seed000's "remembered attraction" keeps.
+    pub last_sighting: bool,
 }
 
 impl Default for EnvParams {
     fn default() -> Self {
-        Self { action_mode: ActionMode::Unicycle, wolf_action_mode: None, target_action_mode: None, lidar: LidarParams::default(), interaction_row: false }
+        Self { action_mode: ActionMode::Unicycle, wolf_action_mode: None, target_action_mode: None, lidar: LidarParams::default(), interaction_row: false, last_sighting: false }
     }
 }
 

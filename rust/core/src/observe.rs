@@ -16,6 +16,7 @@
 //! | target: 9 | | speed cap / v_max | the fatigue cap in force (1 before the first sighting or without fatigue) |
 //! | target: 10 … +5N | | wolves by distance: in range, dx/r, dy/r, sin Δθ, cos Δθ | sensed wolves first; the rest all zero |
 //! | next K | lidar | same | ray k at θ + 2πk/K: distance to the first obstacle or wall / range, 1 = nothing |
+//! | wolf: next 4M (optional) | per target: sighted, dx/S, dy/S, age / max_steps | | the pack's latest sighting (`env.last_sighting`): where the target stood the last time any wolf sensed it, in this wolf's frame; all zero before the first |
 //! | last N+M (optional) | interaction row | same | the agent's row of the last step's interaction matrix |
 //!
 //! Lidar rays are exact: the first hit on a circle, on any edge of a polygon (non-convex shapes
@@ -35,12 +36,21 @@ pub const COMMON: usize = 9;
 /// Observation sizes of both sides for these params.
 pub fn wolf_dim(p: &Params) -> usize {
     let (n, m) = (p.world.wolves, p.world.targets);
-    COMMON + 5 * m + 5 * (n - 1) + p.env.lidar.rays + extra(p)
+    COMMON + 5 * m + 5 * (n - 1) + p.env.lidar.rays + sighting_len(p) + extra(p)
 }
 
 pub fn target_dim(p: &Params) -> usize {
     let n = p.world.wolves;
     COMMON + 1 + 5 * n + p.env.lidar.rays + extra(p)
+}
+
+/// Entries of the last-sighting block (wolves only).
+fn sighting_len(p: &Params) -> usize {
+    if p.env.last_sighting {
+        4 * p.world.targets
+    } else {
+        0
+    }
 }
 
 fn extra(p: &Params) -> usize {
@@ -114,6 +124,23 @@ impl Observer {
             k += 5;
         }
         k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
+        if p.env.last_sighting {
+            for sighting in &w.target_last_sighting {
+                let block = &mut out[k..k + 4];
+                match *sighting {
+                    Some((pos, at)) => {
+                        let (s, c) = mine;
+                        let d = pos - me.pos;
+                        let age = f64::from(w.t - at) / f64::from(p.world.max_steps);
+                        for (o, v) in block.iter_mut().zip([1.0, (c * d.x + s * d.y) * scale, (-s * d.x + c * d.y) * scale, age]) {
+                            *o = v as f32;
+                        }
+                    }
+                    None => block.fill(0.0),
+                }
+                k += 4;
+            }
+        }
         interaction_row(w, i, &mut out[k..]);
     }
 

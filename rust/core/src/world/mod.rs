@@ -106,6 +106,9 @@ pub struct World {
     pub wolf_target: Vec<usize>,
     pub wolf_senses: Vec<bool>,
     pub target_seen_at: Vec<Option<u32>>,
+    /// Where each target stood, and at which step, the last time any wolf sensed it (after a
+    /// step's moves, as the observations see it). Kept only with `env.last_sighting`.
+    pub target_last_sighting: Vec<Option<(Vec2, u32)>>,
     /// Whether each target's hunt is over: captured or, with `capture.cornered`, cornered. An
     /// ended target stands still, and wolves re-pick among the others.
     pub target_captured: Vec<bool>,
@@ -209,6 +212,7 @@ impl World {
             wolf_target: vec![0; n],
             wolf_senses: vec![false; n],
             target_seen_at: vec![None; m],
+            target_last_sighting: vec![None; m],
             target_captured: vec![false; m],
             target_capture_step: vec![None; m],
             target_cornered_step: vec![None; m],
@@ -231,6 +235,7 @@ impl World {
             near: Neighbours::default(),
         };
         w.assign_targets();
+        w.note_sightings();
         w
     }
 
@@ -252,6 +257,7 @@ impl World {
             wolf_target,
             wolf_senses,
             target_seen_at,
+            target_last_sighting,
             target_captured,
             target_capture_step,
             target_cornered_step,
@@ -287,6 +293,7 @@ impl World {
         self.wolf_target.clone_from(&wolf_target);
         self.wolf_senses.clone_from(&wolf_senses);
         self.target_seen_at.clone_from(&target_seen_at);
+        self.target_last_sighting.clone_from(&target_last_sighting);
         self.target_captured.clone_from(&target_captured);
         self.target_capture_step.clone_from(&target_capture_step);
         self.target_cornered_step.clone_from(&target_cornered_step);

@@ -49,6 +49,7 @@ impl World {
         // 4. Outcomes.
         self.t += 1;
         self.judge();
+        self.note_sightings();
         if let Some(fault) = self.non_finite_state() {
             self.fault = Some(fault);
         }
@@ -123,6 +124,20 @@ impl World {
     /// Each wolf hunts its nearest uncaptured target (ties: lowest index).
     pub(super) fn assign_targets(&mut self) {
         nearest_uncaptured(&self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target);
+    }
+
+    /// With `env.last_sighting`, records where each target stands now if any wolf senses it
+    /// (distance ≤ r_w, the sensing of the observations).
+    pub(super) fn note_sightings(&mut self) {
+        if !self.params.env.last_sighting {
+            return;
+        }
+        let r = self.params.agents.wolf.sense_radius;
+        for (j, t) in self.targets.iter().enumerate() {
+            if self.wolves.iter().any(|w| (t.pos - w.pos).norm() <= r) {
+                self.target_last_sighting[j] = Some((t.pos, self.t));
+            }
+        }
     }
 
     /// Target assignment, sensing flags, first sightings and the sensing entries of the
