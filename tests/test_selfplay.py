@@ -24,8 +24,10 @@ import selfplay  # noqa: E402
 from wolfpack import cli  # noqa: E402
 
 MODELS = Path(__file__).resolve().parents[1] / "results" / "models"
-TINY = ["--timesteps", "256", "--hp", "n_steps=16", "--hp", "batch_size=64", "--hp", "n_epochs=1", "--num-envs-wolves", "2", "--num-envs-targets", "4",
-        "--eval-episodes", "3", "--no-progress", "--set", "world.max_steps=60"]
+#: Two or three updates of the trainer per generation (4 worlds x 16 steps x 5 wolves = 320
+#: agent-steps per update of the wolves, 4 x 16 x 1 = 64 of the targets).
+TINY = ["--timesteps", "640", "--hp", "n_steps=16", "--hp", "minibatch_size=64", "--hp", "epochs=1", "--hp", "hidden=[16, 16]", "--num-envs-wolves", "4",
+        "--num-envs-targets", "4", "--threads", "1", "--torch-threads", "1", "--eval-episodes", "3", "--no-progress", "--set", "world.max_steps=60"]
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +48,8 @@ def test_selfplay_builds_a_league_of_frozen_members(league):
     for m in doc["members"]:
         if m["kind"] == "model" and not m.get("fixed"):
             loaded = common.load_model(league / m["path"])
-            assert loaded.side == m["side"] and m["timesteps"] >= 256
+            assert loaded.side == m["side"] and loaded.algo == "mappo" and m["timesteps"] >= 640
+            assert loaded.label == f"mappo:{m['name']}" and (league / m["state"]).is_file()
     # The fixed members were measured against each other, then each new member against the
     # whole other side: every (wolf, target) pair once.
     pairs = [(e["wolves"], e["targets"]) for e in doc["evaluations"]]
@@ -66,10 +69,14 @@ def test_selfplay_refuses_to_overwrite_and_resumes(league, capsys):
     assert selfplay.main(["--out", str(league), "--generations", "3", *TINY]) == 2
     assert "already holds a league" in capsys.readouterr().err
     before = json.loads((league / "league.json").read_text())
-    assert selfplay.main(["--out", str(league), "--resume", "--generations", "3", *[a for a in TINY if a not in ("--set", "world.max_steps=60")]]) == 0
+    # The league keeps its scenario and recipe: --resume takes neither --set nor --hp.
+    assert selfplay.main(["--out", str(league), "--resume", "--generations", "3", "--hp", "epochs=2"]) == 2
+    assert "no --params/--set/--hp" in capsys.readouterr().err
+    again = [a for i, a in enumerate(TINY) if a not in ("--set", "--hp") and (i == 0 or TINY[i - 1] not in ("--set", "--hp"))]
+    assert selfplay.main(["--out", str(league), "--resume", "--generations", "3", *again]) == 0
     after = json.loads((league / "league.json").read_text())
     assert after["members"][: len(before["members"])] == before["members"]
-    assert after["members"][-1]["name"] == "targets_g03" and after["generations"][-1]["started_from"] == f"ppo:{league.name}/targets_g01"
+    assert after["members"][-1]["name"] == "targets_g03" and after["generations"][-1]["started_from"] == "targets_g01"
     assert len(after["commands"]) == 2
 
 
@@ -123,7 +130,7 @@ def test_matrix_with_models_and_a_league(league, tmp_path):
                           str(MODELS / "wolves_ft"), str(MODELS / "escape_ppo"), str(league)]) == 0
     doc = json.loads((out / "matrix.json").read_text())
     # The league folder adds the members it trained (not escape_ppo, which it borrowed).
-    trained = [f"ppo:{league.name}/{m['name']}" for m in json.loads((league / "league.json").read_text())["members"] if m["kind"] == "model" and not m.get("fixed")]
+    trained = [f"mappo:{m['name']}" for m in json.loads((league / "league.json").read_text())["members"] if m["kind"] == "model" and not m.get("fixed")]
     assert doc["wolves"] == ["seed000", "bvc", "formation", "ppo:wolves_ft", *[t for t in trained if "wolves" in t]]
     assert doc["targets"] == ["escape", "random", "still", "ppo:escape_ppo", *[t for t in trained if "targets" in t]]
     assert len(doc["cells"]) == len(doc["wolves"]) * len(doc["targets"]) and (out / "matrix.png").stat().st_size > 20_000

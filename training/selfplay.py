@@ -4,11 +4,12 @@
     python training/selfplay.py --out runs/league --resume --generations 8 --time-limit 30
 
 Alternating best responses against a pool. Generation k trains one side (they alternate,
-``--first`` first) with PPO on the native VecEnv against opponents drawn from the other side's
-pool: its analytic laws as fixed members (seed000, bvc, formation / escape, random, still;
-``--fixed-wolves`` / ``--fixed-targets`` choose) plus every frozen model of that side so far.
-An opponent is drawn at the start of every PPO rollout and swapped in without resetting any
-world (``VecEnv.set_opponent``):
+``--first`` first) with the trainer of ``wolfpack train`` (``--algo mappo`` or ``ippo``, the
+packaged recipes, ``--hp`` for both sides) against opponents drawn from the other side's pool:
+its analytic laws as fixed members (seed000, bvc, formation / escape, random, still;
+``--fixed-wolves`` / ``--fixed-targets`` choose) plus every frozen model of that side so far
+(and any ``--member``). An opponent is drawn at the start of every rollout and swapped in
+without resetting any world (``BatchEnv.set_opponent``):
 
   latest       the other side's newest member (its last fixed law before any model exists)
   uniform      every member alike
@@ -16,15 +17,18 @@ world (``VecEnv.set_opponent``):
                win rate against that member in the league table (0.5 when not yet measured),
                so the opponents it still loses to are met most
 
-The learner starts from its side's latest member, else from ``--init-wolves`` /
-``--init-targets`` (a run folder of train.py or imitate.py), else from a fresh policy. At the
+The league's scenario is ``--params``/``--set`` with the recipes' own params overrides of both
+sides (the wolves' collision weight and the pack's last sighting in their observation). The
+learner starts from its side's latest member (actor, critic, normalisers: its generation's
+``trainer.pt``), else from ``--init-wolves`` / ``--init-targets`` (a run of ``wolfpack
+train``), else afresh; its learning rate anneals over its generation. At the
 end of its generation it is frozen as a new member and evaluated against every member of the
 other side on held-out episodes (seeds 500000 + k, never trained on); those win rates feed
 prioritised sampling and the league table. Win rate: a wolf member's capture rate, a target
 member's survival rate (1 − capture rate).
 
 The time budget (``--time-limit`` minutes, for this invocation) is shared out evenly over the
-generations still to run; ``--timesteps`` caps each generation. Ctrl-C stops at once; the
+generations still to run; ``--timesteps`` caps each generation (agent-steps). Ctrl-C stops at once; the
 league file only ever holds finished generations, and ``--resume`` starts the interrupted one
 again from its side's latest member.
 
@@ -33,9 +37,11 @@ Writes into --out (refused if it holds a league, unless --resume):
                      generations (side, timesteps, wall time, opponents drawn and how often),
                      evaluations (every pair measured: capture rate with 95 % interval,
                      collisions, median capture step), the arguments and the scenario
-  members/<name>/    model.zip + config.yaml of every learned member (evaluate.py, opponent=
-                     and train.py --init-from read them)
-  generations/<k>/   SB3's logs of generation k (progress.csv, TensorBoard)
+  members/<name>/    policy.pt + config.yaml of every learned member (evaluate.py, opponent=
+                     and wolfpack.load_policy read them)
+  generations/<k>/   the trainer's run folder of generation k (progress.csv, TensorBoard,
+                     evaluations.json, trainer.pt: the state the side's next generation
+                     starts from)
   league.md          the league table (each member's win rate against each opposing member)
   league_curves.png  win rates of each generation's member against the fixed laws and the
                      learned opponents, and the training return of every generation
@@ -48,6 +54,7 @@ import json
 import os
 import random
 import shlex
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -56,34 +63,31 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import yaml  # noqa: E402
 
-from wolfpack.opponents import mode_key, side_action_mode  # noqa: E402
+from wolfpack.batch import resolve_params  # noqa: E402
+from wolfpack.config import parse_override  # noqa: E402
+from wolfpack.learn.recipes import ALGOS, params_overrides, recipe  # noqa: E402
+from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
+from wolfpack.opponents import CONFIG_FILE, side_action_mode  # noqa: E402
 
 from common import (  # noqa: E402
     HELD_OUT_SEED,
-    HYPERPARAMS_PATH,
-    MODEL_FILE,
     SIDES,
     TARGET_LAWS,
-    TRAIN_SEED_BASE,
     WOLF_LAWS,
     TrainedModel,
     UsageError,
-    env_params,
-    hyperparams,
     load_model,
-    observation_size,
     play,
     positive_float,
     positive_int,
     prepare_out,
     report,
-    sb3_kwargs,
     seed_int,
-    versions,
-    write_config,
 )
 
 LEAGUE_FILE = "league.json"
+#: 2: members trained by ``wolfpack train``'s trainer (1 was SB3's PPO).
+LEAGUE_FORMAT = 2
 SAMPLING = ("latest", "uniform", "prioritised")
 OTHER = {"wolves": "targets", "targets": "wolves"}
 #: PFSP's floor: a member the learner always beats is still met now and then.
@@ -109,23 +113,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="go on with the league in --out (its scenario and fixed members)")
     p.add_argument("--generations", type=positive_int, default=6, help="generations in the league in all (default 6; with --resume: the new total)")
     p.add_argument("--time-limit", type=positive_float, default=None, metavar="MIN", help="wall-clock minutes for this invocation, shared over the generations still to run")
-    p.add_argument("--timesteps", type=positive_int, default=20_000_000, help="most timesteps (agent-steps) per generation (default 2e7; the time limit usually ends a generation first)")
+    p.add_argument("--timesteps", type=positive_int, default=200_000_000, help="most agent-steps per generation (default 2e8; the time limit usually ends a generation first)")
+    p.add_argument("--algo", choices=ALGOS, default="mappo", help="the trainer's algorithm for both sides (default mappo; a new league only)")
     p.add_argument("--first", choices=SIDES, default="targets", help="the side of generation 1 (default targets)")
     p.add_argument("--pool-sampling", choices=SAMPLING, default="prioritised", help="how each rollout's opponent is drawn (default prioritised)")
     p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=list(WOLF_LAWS), metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
     p.add_argument("--fixed-targets", type=laws_arg("targets"), default=["escape"], metavar="LAWS", help="comma-separated target laws in the pool (default escape; random and still teach wolves little)")
     p.add_argument("--member", dest="members", action="append", default=[], metavar="RUN", help="an existing model (run folder) as a fixed member of its side's pool (repeatable)")
-    p.add_argument("--init-wolves", default=None, metavar="RUN", help="the wolves' first learner starts from this model (train.py/imitate.py run folder)")
-    p.add_argument("--init-targets", default=None, metavar="RUN", help="the targets' first learner starts from this model")
+    p.add_argument("--init-wolves", default=None, metavar="RUN", help="the wolves' first learner starts from this run of wolfpack train (its trainer.pt: actor, critic, normalisers)")
+    p.add_argument("--init-targets", default=None, metavar="RUN", help="the targets' first learner starts from this run of wolfpack train")
     p.add_argument("--eval-episodes", type=positive_int, default=100, help="held-out episodes per evaluated pair (default 100)")
-    p.add_argument("--num-envs-wolves", type=positive_int, default=None, help="worlds while wolves learn (default hyperparams.yaml's)")
-    p.add_argument("--num-envs-targets", type=positive_int, default=None, help="worlds while targets learn (default hyperparams.yaml's)")
+    p.add_argument("--num-envs-wolves", type=positive_int, default=None, help="worlds while wolves learn (default: the recipe's)")
+    p.add_argument("--num-envs-targets", type=positive_int, default=None, help="worlds while targets learn (default: the recipe's)")
     p.add_argument("--params", default=None, help="params YAML of the league's scenario (default: the documented scenario)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
-    p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="PPO hyperparameter override (repeatable; hyperparams.yaml has the defaults)")
+    p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="recipe override for both sides (repeatable; keys: wolfpack/learn/recipes.yaml; a new league only)")
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the league (training worlds, PPO, sampling; default 0)")
-    p.add_argument("--threads", type=positive_int, default=1, help="native worker threads (default 1)")
-    p.add_argument("--torch-threads", type=positive_int, default=1, help="torch threads (default 1)")
+    p.add_argument("--threads", type=positive_int, default=None, help="the batch's threads (default: all cores; the batch and torch take turns)")
+    p.add_argument("--torch-threads", type=positive_int, default=None, help="torch threads (default: all cores)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
 
@@ -140,6 +145,17 @@ def write_league(out: Path, league: dict) -> None:
     os.replace(tmp, out / LEAGUE_FILE)
 
 
+def league_params(args) -> dict:
+    """The league's scenario: ``--params`` with the recipes' params overrides of both sides
+    (reward weights, observation keys such as the wolves' last sighting) and then ``--set``."""
+    hp = dict(parse_override(s) for s in args.hps)
+    overrides: dict = {}
+    for side in SIDES:
+        overrides.update(params_overrides(side, recipe(side, args.algo, hp)))
+    overrides.update(parse_override(s) for s in args.sets)
+    return resolve_params(args.params, overrides)
+
+
 def new_league(args, params: dict, out: Path) -> dict:
     fixed = [{"name": law, "side": "wolves", "kind": "scripted", "generation": 0} for law in args.fixed_wolves]
     fixed += [{"name": law, "side": "targets", "kind": "scripted", "generation": 0} for law in args.fixed_targets]
@@ -151,7 +167,9 @@ def new_league(args, params: dict, out: Path) -> dict:
     if len(set(names)) != len(names):
         raise UsageError(f"two fixed members share a name: {sorted(n for n in names if names.count(n) > 1)[0]!r}")
     return {
-        "format": 1,
+        "format": LEAGUE_FORMAT,
+        "algo": args.algo,
+        "hp": dict(parse_override(s) for s in args.hps),
         "params": params,
         "first": args.first,
         "seed": args.seed,
@@ -203,7 +221,8 @@ class Member:
         return self.name if self.model is None else self.model
 
     def opponent(self):
-        """What ``set_opponent`` takes: the law's name, or the model in its own action mode."""
+        """What ``set_opponent`` takes: the law's name, or the model (it brings its own action
+        mode and observation keys)."""
         import wolfpack
 
         if self.model is None:
@@ -211,93 +230,86 @@ class Member:
         return wolfpack.Opponent(self.model.model, side=self.model.side, action_mode=self.model.action_mode, name=self.name)
 
 
-def member_config(side: str, params: dict, mode: str, hp: dict, extra: dict) -> dict:
-    """A member's config.yaml: what training/common.load_model needs (side, algo, params in the
-    member's own action mode, hyperparameters) plus where it came from."""
-    p = json.loads(json.dumps(params))
-    p["env"]["action_mode"] = mode
-    p["env"][mode_key(side)] = mode
-    return {"side": side, "algo": "ppo", "params": p, "hyperparams": hp, "league_member": extra, "versions": versions()}
+def start_state(out: Path, league: dict, side: str) -> tuple[dict | None, str | None]:
+    """The learner state a generation of ``side`` starts from and its label: the side's latest
+    learned member (its generation's ``trainer.pt``), else ``--init-<side>`` (a run of
+    ``wolfpack train``), else (None, None): a fresh learner."""
+    import torch
+
+    learned = [m for m in members_of(league, side) if m["kind"] == "model" and not m.get("fixed")]
+    if learned:
+        path, label = out / learned[-1]["state"], learned[-1]["name"]
+    elif league["init"][side]:
+        path, label = out / league["init"][side] / TRAINER_FILE, league["init"][side]
+    else:
+        return None, None
+    if not path.is_file():
+        raise UsageError(f"{path}: missing (the learner state a generation of the {side} starts from)")
+    state = torch.load(path, map_location="cpu", weights_only=False)
+    if side not in state.get("learners", {}):
+        raise UsageError(f"{path}: holds no learner of the {side}")
+    return state["learners"][side], Path(label).name
 
 
 def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: float | None, rng: random.Random) -> dict | None:
-    """Trains generation ``k`` (``side``) and freezes it as a member; None when interrupted
-    before anything was learned."""
+    """Trains generation ``k`` (``side``) with ``wolfpack train``'s trainer and freezes it as a
+    member; None when no update finished (interrupted, or no time left)."""
     import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import BaseCallback
-    from stable_baselines3.common.logger import configure
-    from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import VecMonitor
 
-    import wolfpack
+    from wolfpack.learn.cli import default_threads
+    from wolfpack.learn.trainer import Trainer, TrainSpec
 
-    params = league["params"]
     pool = [Member(m, out) for m in members_of(league, OTHER[side])]
-    learned = [m for m in members_of(league, side) if m["kind"] == "model"]
-    start = load_model(out / learned[-1]["path"]) if learned else (load_model(out / league["init"][side]) if league["init"][side] else None)
-    start_name = learned[-1]["name"] if learned else None
-    mode = start.action_mode if start is not None else side_action_mode(params, side)
-    train_params = json.loads(json.dumps(params))
-    train_params["env"][mode_key(side)] = mode
-    if start is not None and int(start.model.observation_space.shape[0]) != observation_size(train_params, side):
-        raise UsageError(f"{start.label} takes {start.model.observation_space.shape[0]} observations, the {side} of the league's scenario have {observation_size(train_params, side)}")
-    hp = hyperparams("ppo", start is not None, args.hps)
-    if start is not None:
-        hp["policy_kwargs"] = start.config.get("hyperparams", {}).get("policy_kwargs", hp.get("policy_kwargs", {}))
-    table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
-    num_envs = (args.num_envs_wolves if side == "wolves" else args.num_envs_targets) or int(table["num_envs"][side])
-
-    torch.set_num_threads(args.torch_threads)
-    set_random_seed(args.seed + k)
-    weights = sampling_weights(league, side, start_name, [m.entry for m in pool], args.pool_sampling)
+    state, started_from = start_state(out, league, side)
+    weights = sampling_weights(league, side, started_from, [m.entry for m in pool], args.pool_sampling)
     drawn: dict[str, int] = {}
 
     def draw():
         m = rng.choices(pool, weights=weights)[0]
         drawn[m.name] = drawn.get(m.name, 0) + 1
-        return m
+        return m.opponent()
 
-    first = draw()
-    venv = wolfpack.make_vec_env(train_params, num_envs=num_envs, learners=side, seed=TRAIN_SEED_BASE * (args.seed + 1) + 10_000 * k, threads=args.threads, opponent=first.opponent())
-    env = VecMonitor(venv)
-    model = PPO("MlpPolicy", env, seed=args.seed + k, device="cpu", verbose=0, **sb3_kwargs(hp))
-    if start is not None:
-        model.policy.load_state_dict(start.model.policy.state_dict())
+    hp = dict(league["hp"])
+    num_envs = args.num_envs_wolves if side == "wolves" else args.num_envs_targets
+    if num_envs:
+        hp["num_envs"] = num_envs
+    minutes = None if deadline is None else (deadline - time.perf_counter()) / 60
+    if minutes is not None and minutes <= 0:
+        return None
+    cores_env, cores_torch = default_threads()
+    torch.set_num_threads(args.torch_threads or cores_torch)
+    spec = TrainSpec(learners=side, algo=league["algo"], params=league["params"], recipes={side: recipe(side, league["algo"], hp)}, seed=league["seed"] * 10_000 + k,
+                     timesteps=args.timesteps, time_limit_min=minutes, threads=args.threads or cores_env, torch_threads=args.torch_threads or cores_torch, device="cpu",
+                     eval_episodes=args.eval_episodes, evaluations=1, command=league["commands"][-1])
     logs = out / "generations" / f"{k:02d}"
-    logs.mkdir(parents=True, exist_ok=True)
-    model.set_logger(configure(str(logs), ["csv", "tensorboard"]))
-
-    class League(BaseCallback):
-        """A new opponent at every rollout (the first rollout keeps the one drawn above); stops
-        learn() at the generation's deadline."""
-
-        def __init__(self) -> None:
-            super().__init__()
-            self.rollouts = 0
-
-        def _on_rollout_start(self) -> None:
-            self.rollouts += 1
-            if self.rollouts > 1:
-                venv.set_opponent(draw().opponent())
-
-        def _on_step(self) -> bool:
-            return deadline is None or time.perf_counter() < deadline
-
-    t0 = time.perf_counter()
-    model.learn(total_timesteps=args.timesteps, callback=League(), progress_bar=not args.no_progress and sys.stderr.isatty())
-    wall = time.perf_counter() - t0
-    if model.num_timesteps == 0:
+    if logs.exists():  # an interrupted generation: it starts again
+        shutil.rmtree(logs)
+    trainer = Trainer(spec, logs, progress=not args.no_progress and sys.stderr.isatty(), opponents=draw)
+    if state is not None:
+        try:
+            trainer.start_from({side: state})
+        except ValueError as e:
+            raise UsageError(f"generation {k}: {e}") from None
+    summary = trainer.run()
+    if summary["updates"] == 0:
         return None
     name = f"{side}_g{k:02d}"
     folder = out / "members" / name
-    folder.mkdir(parents=True, exist_ok=True)
-    model.save(folder / MODEL_FILE)
-    extra = {"league": str(out), "generation": k, "started_from": start.label if start is not None else None, "timesteps": int(model.num_timesteps), "opponents_drawn": drawn}
-    write_config(folder, member_config(side, params, mode, hp, extra))
+    if folder.exists():
+        shutil.rmtree(folder)
+    shutil.copytree(logs / side, folder)
+    config = yaml.safe_load((folder / CONFIG_FILE).read_text())
+    # The member's label is its name (``mappo:wolves_g02``), not its generation folder's.
+    config["run"] = name
+    config["league_member"] = {"generation": k, "started_from": started_from, "agent_steps": summary["agent_steps"], "opponents_drawn": drawn}
+    (folder / CONFIG_FILE).write_text(yaml.safe_dump(json.loads(json.dumps(config)), sort_keys=False))
+    wall = summary["train_s"]
     return {
-        "member": {"name": name, "side": side, "kind": "model", "generation": k, "path": f"members/{name}", "timesteps": int(model.num_timesteps), "wall_s": round(wall, 1), "action_mode": mode},
-        "generation": {"generation": k, "side": side, "timesteps": int(model.num_timesteps), "wall_s": round(wall, 1), "started_from": extra["started_from"], "sampling": args.pool_sampling, "weights": dict(zip([m.name for m in pool], weights)), "opponents_drawn": drawn, "stopped_by_time_limit": int(model.num_timesteps) < args.timesteps},
+        "member": {"name": name, "side": side, "kind": "model", "generation": k, "path": f"members/{name}", "state": f"generations/{k:02d}/{TRAINER_FILE}",
+                   "timesteps": summary["agent_steps"], "wall_s": round(wall, 1), "action_mode": side_action_mode(league["params"], side)},
+        "generation": {"generation": k, "side": side, "timesteps": summary["agent_steps"], "wall_s": round(wall, 1), "agent_steps_per_s": summary["this_invocation"]["agent_steps_per_s"],
+                       "started_from": started_from, "sampling": args.pool_sampling, "weights": dict(zip([m.name for m in pool], weights)), "opponents_drawn": drawn,
+                       "stopped_by_time_limit": summary["stopped_by"] == "time_limit"},
     }
 
 
@@ -376,11 +388,12 @@ def league_curves(out: Path, league: dict) -> None:
         path = out / "generations" / f"{g['generation']:02d}" / "progress.csv"
         if not path.is_file():
             continue
+        column = f"{g['side']}_return"
         with path.open() as f:
-            rows = [r for r in csv.DictReader(f) if r.get("rollout/ep_rew_mean")]
+            rows = [r for r in csv.DictReader(f) if r.get(column)]
         if rows:
-            xs = [offset + float(r["time/total_timesteps"]) / 1e6 for r in rows]
-            ys = [float(r["rollout/ep_rew_mean"]) for r in rows]
+            xs = [offset + float(r["agent_steps"]) / 1e6 for r in rows]
+            ys = [float(r[column]) for r in rows]
             colour = "tab:red" if g["side"] == "wolves" else "tab:blue"
             # Each rollout meets another opponent: the raw curve is noisy, its running mean
             # over 20 rollouts is the trend.
@@ -391,7 +404,7 @@ def league_curves(out: Path, league: dict) -> None:
         offset += g["timesteps"] / 1e6
     ax.set_title("training return per episode (line: mean of 20 rollouts)", fontsize=10)
     ax.legend(handles=[Line2D([], [], color="tab:red", label="wolves learn"), Line2D([], [], color="tab:blue", label="targets learn")], fontsize=7, loc="best")
-    ax.set_xlabel("league timesteps (millions)")
+    ax.set_xlabel("league agent-steps (millions)")
     ax.grid(alpha=0.3)
     fig.savefig(out / "league_curves.png", dpi=120)
     plt.close(fig)
@@ -408,15 +421,17 @@ def main(argv: list[str] | None = None) -> int:
             if not args.resume:
                 raise UsageError(f"--out {out} already holds a league ({LEAGUE_FILE}); --resume to go on with it, or choose another folder")
             league = json.loads((out / LEAGUE_FILE).read_text())
-            if args.params is not None or args.sets:
-                raise UsageError("--resume goes on in the league's own scenario: no --params/--set")
+            if league.get("format") != LEAGUE_FORMAT:
+                raise UsageError(f"--resume: {out / LEAGUE_FILE} is a league of an older format ({league.get('format')}, trained with SB3); start a new league")
+            if args.params is not None or args.sets or args.hps:
+                raise UsageError("--resume goes on in the league's own scenario and recipe: no --params/--set/--hp")
         else:
             if args.resume:
                 raise UsageError(f"--resume: no {LEAGUE_FILE} in {out}")
             for init in (args.init_wolves, args.init_targets):
                 if init is not None:
                     load_model(init)  # fails early, naming the file
-            league = new_league(args, env_params(args.params, args.sets), out)
+            league = new_league(args, league_params(args), out)
         prepare_out(out)
     except (UsageError, ValueError) as e:
         print(f"selfplay.py: error: {e}", file=sys.stderr)

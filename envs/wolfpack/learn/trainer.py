@@ -32,7 +32,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import torch
@@ -96,10 +96,16 @@ def _plain(x: Any) -> Any:
 
 class Trainer:
     """Runs a :class:`TrainSpec` into ``out`` (a new or empty folder, or with ``resume`` a folder
-    of the same run)."""
+    of the same run).
 
-    def __init__(self, spec: TrainSpec, out: Path, *, resume: bool = False, progress: bool = True) -> None:
+    ``opponents``, for leagues: a function that draws the other side's driver (anything
+    ``opponent=`` takes) for each rollout; the batch starts with the first draw and swaps in the
+    next one before every later rollout without resetting any world (``set_opponent``). It
+    replaces ``spec.opponent`` while training; evaluations stay against ``spec.opponent``."""
+
+    def __init__(self, spec: TrainSpec, out: Path, *, resume: bool = False, progress: bool = True, opponents: Callable[[], Any] | None = None) -> None:
         self.spec, self.out, self.progress = spec, Path(out), progress
+        self.opponents = opponents
         self.device = torch.device(spec.device)
         wolves_recipe = spec.recipes[spec.sides[0]]
         self.num_envs, self.n_steps = int(wolves_recipe["num_envs"]), int(wolves_recipe["n_steps"])
@@ -116,7 +122,7 @@ class Trainer:
         if state is not None:
             self.resumes = int(state["resumes"]) + 1
         learners = "all" if spec.learners == "both" else spec.learners
-        opponent = self._opponent()
+        opponent = self._opponent() if opponents is None else opponents()
         world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
         self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent)
         self.learners: dict[str, SideLearner] = {}
@@ -141,6 +147,17 @@ class Trainer:
         opp = as_opponent(self.spec.opponent)
         opponent_side(opp, self.spec.learners)  # a ValueError when it would drive a learning side
         return opp
+
+    def start_from(self, learner_states: dict[str, dict]) -> None:
+        """Starts each side in ``learner_states`` (side -> the ``learners`` entry of a
+        ``trainer.pt``) from that learner: actor, critic, optimiser and normalisers. The budget,
+        the learning-rate schedule and the counters start afresh (a league's next generation).
+        A learner of another architecture is a ValueError naming the side."""
+        for side, state in learner_states.items():
+            try:
+                self.learners[side].load_state_dict(state)
+            except (KeyError, RuntimeError, ValueError) as e:
+                raise ValueError(f"cannot start the {side} from that learner: another network or observation size ({type(e).__name__}: {str(e).splitlines()[0]})") from None
 
     def _load_resume_state(self) -> dict | None:
         candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
@@ -200,6 +217,7 @@ class Trainer:
         interrupted = False
         stats: dict = {}
         critic_only = 0
+        rollouts = 0
         try:
             if spec.imitate_min and self.updates == 0:
                 from wolfpack.learn.imitation import imitate
@@ -218,6 +236,9 @@ class Trainer:
                 if fraction >= 1.0 or (not spec.timesteps and not spec.time_limit_min):
                     break
                 t0 = time.perf_counter()
+                if self.opponents is not None and rollouts > 0:
+                    self.env.set_opponent(self.opponents())
+                rollouts += 1
                 outcomes = np.zeros(len(OUTCOMES), np.int64)
                 finished_returns: dict[str, list[float]] = {side: [] for side in spec.sides}
                 for t in range(self.n_steps):
