@@ -394,6 +394,9 @@ def test_version_and_python_dash_m(cli):
 
     done = cli("--version")
     assert done.returncode == 0 and done.stdout.strip() == f"wolfpack {wolfpack.__version__}"
+    # A bare `wolfpack` shows what it can do (the help), not an error about a missing command.
+    bare = cli()
+    assert bare.returncode == 0 and bare.stdout.startswith("usage: wolfpack") and "hunt" in bare.stdout and bare.stderr == ""
     as_module = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--episodes", "1", "--json"], capture_output=True, text=True, timeout=120)
     assert as_module.returncode == 0, as_module.stderr
     assert json.loads(as_module.stdout)["episodes"] == 1

@@ -328,9 +328,9 @@ def test_invalid_learners_and_arguments():
                  lambda **k: wolfpack.make_vec_env(num_envs=1, **k), lambda **k: wolfpack.BatchEnv(**k)):
         with pytest.raises(TypeError, match="'frameskip'"):
             make(frameskip=4)
-        with pytest.raises(TypeError, match="world.wolvs"):
+        with pytest.raises(TypeError, match=r"world\.wolvs' \(did you mean 'world\.wolves'\?\)"):
             make(**{"world.wolvs": 3})
-        with pytest.raises(TypeError, match="world__wolvs"):
+        with pytest.raises(TypeError, match=r"world__wolvs' \(did you mean 'world\.wolves'\?\)"):
             make(world__wolvs=3)
         with pytest.raises(ValueError, match="world.wolves"):
             make(world__wolves=0)

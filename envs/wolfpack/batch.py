@@ -8,6 +8,8 @@ Observations, actions and rewards are documented in :mod:`wolfpack.parallel_env`
 
 from __future__ import annotations
 
+import difflib
+
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -54,9 +56,21 @@ def check_override_keywords(overrides: Mapping[str, Any]) -> None:
         # Python's own wording for the first, which libraries match on (TorchRL's GymEnv retries
         # without `frameskip` when it reads "unexpected keyword argument 'frameskip'").
         also = f" (and {', '.join(repr(k) for k in unknown[1:])})" if len(unknown) > 1 else ""
-        raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}{also}: a keyword names a params key, "
+        close = difflib.get_close_matches(dotted_keys({unknown[0]: None}).popitem()[0], [*_leaf_keys(known), *KEYWORD_ALIASES], n=3, cutoff=0.75)
+        hint = f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+        raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}{also}{hint}. A keyword names a params key, "
                         f"with __ for the dots (world__wolves=8) or dotted (**{{'world.wolves': 8}}), or is one of "
                         f"{', '.join(KEYWORD_ALIASES)}")
+
+
+def _leaf_keys(node: Mapping[str, Any], prefix: str = "") -> list[str]:
+    """Every dotted params key under ``node`` (sections and their leaves)."""
+    keys = []
+    for k, v in node.items():
+        keys.append(prefix + k)
+        if isinstance(v, dict):
+            keys += _leaf_keys(v, f"{prefix}{k}.")
+    return keys
 
 
 _MISSING = object()

@@ -767,7 +767,11 @@ def main(argv: Sequence[str] | None = None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         with _ctrl_c_handled():
-            args = build_parser().parse_args(argv)
+            parser = build_parser()
+            if not argv:  # a bare `wolfpack`: what it can do, not an error about what is missing
+                parser.print_help()
+                return
+            args = parser.parse_args(argv)
             args.func(args, argv)
     except ValueError as e:
         sys.exit(_fail(EXIT_INPUT, f"error: {_one_line(e)}"))
