@@ -719,3 +719,18 @@ def test_a_threaded_batch_made_before_a_fork_steps_in_the_child():
     # The parent's own crew still works.
     assert _FORKED_BATCH.step(np.zeros((64, 5, 2), np.float32))["obs_wolves"].shape == want
     _FORKED_BATCH = None
+
+
+def test_a_missing_optional_dependency_names_the_extra(monkeypatch, tmp_path):
+    """Without stable-baselines3 (a core install), make_vec_env and loading an SB3 model say
+    which extra brings it; without torch, so does loading a native model."""
+    import sys
+
+    from wolfpack._optional import require
+
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)
+    with pytest.raises(ImportError, match=r"make_vec_env .* needs stable-baselines3, which is not installed: pip install 'wolfpack\[train\]'"):
+        wolfpack.make_vec_env(num_envs=1)
+    monkeypatch.setitem(sys.modules, "torch", None)
+    with pytest.raises(ImportError, match=r"the model X needs torch, .*wolfpack\[train\]"):
+        require("torch", "the model X")

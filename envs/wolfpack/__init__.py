@@ -29,7 +29,10 @@ from wolfpack.parallel_env import env, parallel_env
 def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, opponent=None, **overrides):
     """An SB3 ``VecEnv`` over the native batch: one slot per learning agent per world (see
     :mod:`wolfpack.vec_env`); ``learners="all"`` needs ``shared_space=True``. Imports
-    stable-baselines3 on first use."""
+    stable-baselines3 on first use (an ImportError naming the ``[train]`` extra without it)."""
+    from wolfpack._optional import require
+
+    require("stable_baselines3", "make_vec_env (an SB3 VecEnv)")
     from wolfpack.vec_env import make_vec_env as _make
 
     return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)

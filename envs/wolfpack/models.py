@@ -121,8 +121,9 @@ class NativePolicy(SavedPolicy):
     """A model of the native trainer (``policy.pt`` + ``config.yaml``), run on the CPU."""
 
     def __init__(self, folder: Path, config: dict) -> None:
-        import torch
+        from wolfpack._optional import require
 
+        torch = require("torch", f"loading the model {folder}")
         from wolfpack.learn.nets import Actor
 
         arch = config["network"]

@@ -99,7 +99,9 @@ def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
     """An SB3 model from its zip: with ``algo`` (``ppo``, ``sac``, ``a2c``, ``td3``) that class,
     else the class whose policy the zip holds. ValueError naming the file when it is no SB3
     model."""
-    import stable_baselines3 as sb3
+    from wolfpack._optional import require
+
+    sb3 = require("stable_baselines3", f"loading the SB3 model {zip_path}")
     from stable_baselines3.common.save_util import load_from_zip_file
 
     classes = {"ppo": sb3.PPO, "sac": sb3.SAC, "a2c": sb3.A2C, "td3": sb3.TD3}
