@@ -529,6 +529,8 @@ BAD_TRAJECTORIES = [
     ("wolves all NaN", _set("wolves", lambda a: np.full_like(a["wolves"], np.nan)), "wolves: not finite"),
     ("targets inf", _set("targets", lambda a: np.where(np.arange(5) == 1, np.inf, a["targets"])), "targets: not finite"),
     ("energy NaN", _set("energy", lambda a: a["energy"] * np.nan), "energy: not finite"),
+    ("interaction all NaN", _set("interaction", lambda a: np.full(a["interaction"].shape, np.nan)), "interaction: entries are 0 or 1, got nan at index [0, 0, 0]"),
+    ("interaction 2", _set("interaction", lambda a: a["interaction"] * 0 + 2), "interaction: entries are 0 or 1, got 2"),
     ("obstacle_poses NaN", _set("obstacle_poses", lambda a: a["obstacle_poses"] * np.nan), "obstacle_poses: not finite"),
     ("border NaN", _set("border", np.array([np.nan, -10, 10, 10])), "border: not finite"),
     ("border order", _set("border", np.array([10.0, -10, -10, 10])), "border: expected x_min < x_max"),

@@ -150,7 +150,7 @@ def check_trajectory(arrays: Mapping[str, np.ndarray]) -> None:
     module's docstring before anything draws it: the keys, numeric dtypes (no strings or
     objects where numbers belong), shapes consistent with each other (T, N, M, K from
     ``wolves``, ``targets`` and ``obstacle_poses``), finite poses, energies, radii, border and
-    capture distance. Raises ValueError naming the array and what is wrong."""
+    capture distance, and an interaction matrix of 0s and 1s. Raises ValueError naming the array and what is wrong."""
     missing = [k for k in REQUIRED_KEYS if k not in arrays]
     if missing:
         raise ValueError(f"not a wolfpack trajectory (missing {', '.join(missing)})")
@@ -197,6 +197,10 @@ def check_trajectory(arrays: Mapping[str, np.ndarray]) -> None:
             raise ValueError(f"{key}: not finite{f' at index {where}' if where else ''} ({a[key][tuple(where)] if where else a[key]})")
     if np.isinf(verts).any():
         raise ValueError("obstacle_vertices: infinite entries (only NaN padding is allowed)")
+    flags = a["interaction"]
+    if flags.size and not np.isin(flags, (0, 1)).all():
+        where = np.argwhere(~np.isin(flags, (0, 1)))[0].tolist()
+        raise ValueError(f"interaction: entries are 0 or 1, got {flags[tuple(where)]} at index {where}")
     x0, y0, x1, y1 = a["border"].tolist()
     if not (x0 < x1 and y0 < y1):
         raise ValueError(f"border: expected x_min < x_max and y_min < y_max, got {a['border'].tolist()}")
