@@ -648,13 +648,48 @@ fn ordered(key: &str, r: [f64; 2]) -> Result<()> {
     Ok(())
 }
 
+/// serde's wording of a value of the wrong type or range (`invalid value: integer `-3`,
+/// expected usize`) in the project's words, with the key's documented range where it has one
+/// (`must be an integer in [1, 1024] wolves (wolves + targets <= 1024), got -3`). Messages of
+/// other kinds (unknown fields, missing keys) pass unchanged.
+pub fn plain_words(key: &str, message: &str) -> String {
+    let Some(rest) = message.strip_prefix("invalid type: ").or_else(|| message.strip_prefix("invalid value: ")) else {
+        return message.to_string();
+    };
+    let Some((got, expected)) = rest.rsplit_once(", expected ") else {
+        return message.to_string();
+    };
+    let range = crate::limits::limit_of(key).map(|l| format!(" in {}", l.describe())).unwrap_or_default();
+    let wanted = match expected {
+        "usize" | "u64" | "u32" | "u16" | "u8" => format!("an integer{}", if range.is_empty() { " >= 0".to_string() } else { range }),
+        "i64" | "i32" => format!("an integer{range}"),
+        "f64" | "f32" => format!("a number{range}"),
+        "a boolean" => "true or false".to_string(),
+        "a sequence" => "a list".to_string(),
+        "a map" | "struct Params" => "a mapping".to_string(),
+        other => other.to_string(),
+    };
+    // serde names the value's kind and quotes it with backticks: `integer `-3``, `string "abc"`.
+    let shown = match got.split_once(' ') {
+        Some((kind, value)) if ["integer", "floating", "boolean"].contains(&kind) => value.rsplit(' ').next().unwrap_or(value).trim_matches('`').to_string(),
+        Some(("string", value)) => value.to_string(),
+        _ => match got {
+            "map" => "a mapping".to_string(),
+            "sequence" => "a list".to_string(),
+            "unit value" | "null" => "null".to_string(),
+            other => other.to_string(),
+        },
+    };
+    format!("must be {wanted}, got {shown}")
+}
+
 impl Params {
     /// Parses a value tree (from YAML/JSON via Python, or serde_json in tests) and validates it.
     /// Errors name the offending key path, e.g. `world.wolvs: unknown field ...`.
     pub fn from_deserializer<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Self> {
         let p: Params = serde_path_to_error::deserialize(d).map_err(|e| {
             let path = e.path().to_string();
-            let inner = e.into_inner().to_string();
+            let inner = plain_words(&path, &e.into_inner().to_string());
             if path.is_empty() || path == "." {
                 Error::Params(inner)
             } else {
@@ -732,6 +767,23 @@ impl Params {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn serde_wording_becomes_the_projects() {
+        let err = |tree: serde_json::Value| Params::from_deserializer(tree).unwrap_err().to_string();
+        let e = err(serde_json::json!({"world": {"wolves": -3}}));
+        assert!(e.contains("world.wolves: must be an integer in [1, 1024] wolves") && e.ends_with("got -3"), "{e}");
+        let e = err(serde_json::json!({"world": {"wolves": 2.5}}));
+        assert!(e.contains("world.wolves: must be an integer in [1, 1024]") && e.ends_with("got 2.5"), "{e}");
+        let e = err(serde_json::json!({"world": {"ts": "abc"}}));
+        assert!(e.contains("world.ts: must be a number in (0, 1] s, got \"abc\""), "{e}");
+        let e = err(serde_json::json!({"env": {"last_sighting": 3}}));
+        assert!(e.ends_with("env.last_sighting: must be true or false, got 3"), "{e}");
+        let e = err(serde_json::json!({"world": {"border": 3}}));
+        assert!(!e.contains("usize") && !e.contains("f64") && e.contains("must be"), "{e}");
+        // Other messages pass through.
+        assert_eq!(plain_words("world", "unknown field `wolvs`"), "unknown field `wolvs`");
+    }
     use super::*;
 
     fn parse(json: &str) -> Result<Params> {

@@ -185,7 +185,7 @@ fn layout_from(obj: &Bound<'_, PyAny>) -> PyResult<Option<Layout>> {
     let tree = plain_value(obj).map_err(|e| PyValueError::new_err(format!("layout: {}", e.value(py))))?;
     serde_path_to_error::deserialize(tree).map(Some).map_err(|e| {
         let path = e.path().to_string();
-        PyValueError::new_err(format!("layout: {path}: {}", e.into_inner()))
+        PyValueError::new_err(format!("layout: {path}: {}", wolfpack_core::config::plain_words("", &e.into_inner().to_string())))
     })
 }
 
