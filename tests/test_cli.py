@@ -413,3 +413,39 @@ def test_force_replaces_an_earlier_run_and_keeps_other_files(cli, tmp_path):
     assert json.loads((out / "summary.json").read_text())["seed"] == 5
     assert (out / "notes.txt").read_text() == "mine"
     assert not list(out.rglob(".*.tmp"))
+
+
+def test_out_keeps_a_bounded_number_of_trajectories(cli, tmp_path):
+    """--out writes trajectory.npz for the first 20 episodes (or --plots when larger) unless
+    --trajectories says otherwise; the summary covers every episode either way."""
+    def npz(out):
+        return sorted(p.parent.name for p in out.glob("episode_*/trajectory.npz"))
+
+    args = ("--episodes", "24", "--set", "world.max_steps=20")
+    assert cli("hunt", *args, "--plots", "0", "--out", tmp_path / "a").returncode == 0
+    assert npz(tmp_path / "a") == [f"episode_{k:03d}" for k in range(20)]
+    assert json.loads((tmp_path / "a" / "summary.json").read_text())["episodes"] == 24
+    assert cli("hunt", *args, "--trajectories", "all", "--plots", "0", "--out", tmp_path / "c").returncode == 0
+    assert len(npz(tmp_path / "c")) == 24
+    assert cli("hunt", *args, "--trajectories", "0", "--plots", "1", "--out", tmp_path / "d").returncode == 0
+    assert npz(tmp_path / "d") == [] and (tmp_path / "d" / "episode_000" / "trajectory.png").is_file()
+    bad = cli("hunt", "--episodes", "2", "--trajectories", "some", "--out", tmp_path / "e")
+    assert bad.returncode == 2 and "expected an integer >= 0 or 'all', got 'some'" in bad.stderr and not (tmp_path / "e").exists()
+
+
+def test_a_run_of_more_than_a_gigabyte_says_so_first(capsys):
+    import argparse
+
+    from wolfpack import _core, cli as wcli
+
+    def kept(episodes, plots, trajectories):
+        return wcli.kept_trajectories(argparse.Namespace(episodes=episodes, plots=plots, trajectories=trajectories))
+
+    # 20 by default, or --plots when larger; never more than the episodes.
+    assert (kept(100, 20, None), kept(100, 25, None), kept(5, 20, None), kept(100, 25, 3), kept(7, 0, "all")) == (20, 25, 5, 3, 7)
+
+    params = _core.default_params()
+    wcli._warn_if_large(argparse.Namespace(episodes=100_000, plots=20, trajectories="all"), params)
+    assert "keeps 100,000 trajectory.npz files, about 8.0 GB" in capsys.readouterr().err
+    wcli._warn_if_large(argparse.Namespace(episodes=100_000, plots=20, trajectories=None), params)
+    assert capsys.readouterr().err == ""

@@ -87,7 +87,9 @@ is written under a temporary name and renamed, so every file present is complete
                                       agent); written
                                       last, so a failed run never leaves one behind
   DIR/summary.png                     outcome counts and the histogram of capture steps
-  DIR/episode_KKK/trajectory.npz      float64 wolves [T+1,N,5] and targets [T+1,M,5]
+  DIR/episode_KKK/trajectory.npz      (first --trajectories episodes: 20 by default, or --plots
+                                      when larger; 'all' for every one, ~80 KB each)
+                                      float64 wolves [T+1,N,5] and targets [T+1,M,5]
                                       (x, y, theta, v, omega; row 0 = initial state, row t =
                                       after step t), energy [T+1,N+M] (accumulated), uint8
                                       interaction [T,N+M,N+M], outcome, capture_step (-1: none),
@@ -141,6 +143,23 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(EXIT_INPUT, f"{PROG}: error: {self.prog.removeprefix(PROG).strip() or 'usage'}: {message} (see --help)\n")
+
+
+#: Episodes whose trajectory.npz `hunt --out` keeps unless told (--trajectories).
+TRAJECTORIES_DEFAULT = 20
+#: Bytes of one compressed trajectory.npz of the documented scenario (300 steps, 6 agents,
+#: 12 obstacles), for the size estimate of --trajectories all.
+TRAJECTORY_BYTES = 80_000
+
+
+def _count_or_all(text: str) -> int | str:
+    """``--trajectories``: an integer >= 0 or ``all``."""
+    if text == "all":
+        return "all"
+    try:
+        return _int_at_least(0)(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0 or 'all', got {text!r}") from None
 
 
 def _int_at_least(lo: int, hi: int | None = None) -> Callable[[str], int]:
@@ -205,7 +224,10 @@ def build_parser() -> argparse.ArgumentParser:
                                                            "other files are kept, and a run that fails or is interrupted leaves the earlier one as it was")
     hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
                       help="with --out, draw trajectory.png, curves.png and interaction.png (and with --video episode.mp4) for the first N episodes only (default: 20; "
-                           "0: none); summary.png and every trajectory.npz are always written")
+                           "0: none); summary.png is always written")
+    hunt.add_argument("--trajectories", metavar="N|all", type=_count_or_all, default=None,
+                      help="with --out, save trajectory.npz (what 'wolfpack replay' re-renders) for the first N episodes only (default: 20, or --plots when larger; "
+                           "'all': every episode, about 80 KB each in the documented scenario); summary.json covers every episode either way")
     hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) "
                                                            "for the episodes that get plots (--plots)")
     hunt.add_argument("--json", action="store_true", help="print one JSON object (the summary) on stdout instead of a table")
@@ -374,27 +396,38 @@ class RunWriter:
     first episode, and ``summary.json`` is written last, by :meth:`finish`. Every file is written
     under a temporary name and renamed: a file under its final name is complete."""
 
-    def __init__(self, out: Path, resolved: dict, plots: int, video: bool = False):
+    def __init__(self, out: Path, resolved: dict, plots: int, video: bool = False, trajectories: int | None = None):
         # Imported here: matplotlib is slow to import and only needed with --out.
         from wolfpack import plots as plotting
 
         self.plotting = plotting
         self.out, self.resolved, self.plots, self.video = out, resolved, plots, video
-        self.count = 0  # episodes written
+        self.trajectories = plots if trajectories is None else trajectories
+        self.count = 0  # episodes finished
         (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
 
+    @property
+    def recorded(self) -> int:
+        """Episodes whose recorded trajectory something here uses (a file or plots)."""
+        return max(self.plots, self.trajectories)
+
     def episode(self, k: int, result: dict) -> None:
-        """Writes ``episode_{k:03d}/trajectory.npz`` and, for k < plots, its plots (and video).
-        The episode counts as written (:attr:`count`) once its trajectory.npz is; a folder left
-        without one by an error or Ctrl-C is removed."""
+        """Writes ``episode_{k:03d}/trajectory.npz`` for k < trajectories and, for k < plots,
+        its plots (and video); later episodes only count (:attr:`count`). A folder left without
+        its trajectory.npz by an error or Ctrl-C is removed."""
         self.out.mkdir(parents=True, exist_ok=True)
+        if k >= self.recorded:
+            self.count += 1
+            return
         folder = logs.episode_dir(self.out, k)
         folder.mkdir(exist_ok=True)
-        try:
-            logs.write_trajectory(folder / "trajectory.npz", arrays := logs.trajectory_arrays(result, self.resolved))
-        except BaseException:
-            shutil.rmtree(folder, ignore_errors=True)
-            raise
+        arrays = logs.trajectory_arrays(result, self.resolved)
+        if k < self.trajectories:
+            try:
+                logs.write_trajectory(folder / "trajectory.npz", arrays)
+            except BaseException:
+                shutil.rmtree(folder, ignore_errors=True)
+                raise
         self.count += 1
         if k < self.plots:
             for name, plot in (("trajectory.png", self.plotting.plot_trajectory), ("curves.png", self.plotting.plot_curves),
@@ -532,16 +565,33 @@ def _chunk_size(episodes: int, threads: int | None, streaming: bool) -> int:
     return max(1, min(episodes, per_thread * (threads or _cores())))
 
 
-def simulate(args, params, layout, on_result: Callable[[int, dict], None], details: list | None = None) -> tuple[RunningSummary, float]:
+def kept_trajectories(args) -> int:
+    """How many episodes' trajectory.npz ``hunt --out`` writes (``--trajectories``)."""
+    if args.trajectories == "all":
+        return args.episodes
+    return min(args.episodes, max(TRAJECTORIES_DEFAULT, args.plots) if args.trajectories is None else args.trajectories)
+
+
+def _warn_if_large(args, resolved: dict) -> None:
+    """One line on stderr before a run whose files would pass ~1 GB: what it will write."""
+    w = resolved["world"]
+    each = TRAJECTORY_BYTES * w["max_steps"] / 300 * (w["wolves"] + w["targets"]) / 6
+    total = kept_trajectories(args) * each
+    if total > 1e9:
+        print(f"{PROG}: note: --out keeps {kept_trajectories(args):,} trajectory.npz files, about {total / 1e9:.1f} GB "
+              f"(~{each / 1e3:.0f} KB each); --trajectories N keeps fewer", file=sys.stderr)
+
+
+def simulate(args, params, layout, on_result: Callable[[int, dict], None], details: list | None = None, recorded: int = 0) -> tuple[RunningSummary, float]:
     """Runs the episodes in chunks; calls ``on_result(k, result)`` for each, in order, and
-    appends each episode's :func:`logs.episode_detail` to ``details`` when given. Returns the
-    running summary and the wall time spent inside the simulator. Nothing else is kept per
-    episode, so memory does not grow with the episode count (bar ``details``)."""
+    appends each episode's :func:`logs.episode_detail` to ``details`` when given. Episodes
+    ``0 .. recorded - 1`` (whole chunks) come with their trajectories. Returns the running
+    summary and the wall time spent inside the simulator. Nothing else is kept per episode, so
+    memory does not grow with the episode count (bar ``details``)."""
     from tqdm import tqdm
 
-    record = args.out is not None
     show = sys.stderr.isatty()
-    chunk = _chunk_size(args.episodes, args.threads, record or show)
+    chunk = _chunk_size(args.episodes, args.threads, recorded > 0 or show)
     tally = RunningSummary()
     seconds = 0.0
     with tqdm(total=args.episodes, unit="ep", file=sys.stderr, disable=not show, leave=False) as bar:
@@ -550,7 +600,7 @@ def simulate(args, params, layout, on_result: Callable[[int, dict], None], detai
             t0 = time.perf_counter()
             # Episode k depends only on its seed S + k, so a chunk starting at `first` is a run
             # with seed S + first.
-            batch = run_episodes(params, count, args.seed + first, layout=layout, record=record, threads=args.threads)
+            batch = run_episodes(params, count, args.seed + first, layout=layout, record=first < recorded, threads=args.threads)
             seconds += time.perf_counter() - t0
             for i, result in enumerate(batch):
                 _CtrlC.check()
@@ -583,7 +633,7 @@ def _table(summary: dict, args, resolved: dict) -> str:
     lines.append(f"  {'mean energy (J)':<22} {summary['mean_energy']:>10.2f}")
     lines.append(f"  {'env steps per second':<22} {summary['env_steps_per_second'] or 0:>10.0f}")
     if args.out:
-        lines.append(f"wrote {args.out}/summary.json, summary.png and episode_*/ (trajectory.npz; plots for the first {min(args.plots, n)})")
+        lines.append(f"wrote {args.out}/summary.json, summary.png and episode_*/ (trajectory.npz for the first {kept_trajectories(args)}, plots for the first {min(args.plots, n)})")
     return "\n".join(lines)
 
 
@@ -597,12 +647,14 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
         tally, seconds = simulate(args, params, layout, lambda k, r: None)
         _report(tally.summary(seconds), args, resolved)
         return
+    _warn_if_large(args, resolved)
     run = RunDir(out, args.force, [PROG, *argv])
     writer: RunWriter | None = None
     try:
-        writer = RunWriter(run.work, resolved, args.plots, args.video)
+        trajectories = kept_trajectories(args)
+        writer = RunWriter(run.work, resolved, args.plots, args.video, trajectories)
         details: list[dict] = []
-        tally, seconds = simulate(args, params, layout, writer.episode, details)
+        tally, seconds = simulate(args, params, layout, writer.episode, details, recorded=writer.recorded)
         summary = tally.summary(seconds)
         full = {**summary, "params": resolved, "seed": args.seed, "layout": layout,
                 "command": [PROG, *argv], "episodes_detail": details}
