@@ -96,6 +96,9 @@ def test_selfplay_bad_arguments_exit_2(tmp_path, capsys):
     assert "no league.json" in capsys.readouterr().err
     assert selfplay.main(["--out", str(tmp_path / "b"), "--init-wolves", str(tmp_path / "nothing")]) == 2
     assert "no such model" in capsys.readouterr().err
+    # An SB3 model is a model, but no trainer's state to start a generation from.
+    assert selfplay.main(["--out", str(tmp_path / "b2"), "--init-targets", str(MODELS / "escape_ppo")]) == 2
+    assert "not a run of wolfpack train (no trainer.pt)" in capsys.readouterr().err and not (tmp_path / "b2" / "league.json").exists()
     with pytest.raises(SystemExit):
         selfplay.main(["--out", str(tmp_path / "c"), "--fixed-wolves", "seed000,wolfish"])
     assert "unknown wolves law 'wolfish'" in capsys.readouterr().err

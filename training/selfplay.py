@@ -428,9 +428,11 @@ def main(argv: list[str] | None = None) -> int:
         else:
             if args.resume:
                 raise UsageError(f"--resume: no {LEAGUE_FILE} in {out}")
-            for init in (args.init_wolves, args.init_targets):
+            for flag, init in (("--init-wolves", args.init_wolves), ("--init-targets", args.init_targets)):
                 if init is not None:
                     load_model(init)  # fails early, naming the file
+                    if not (Path(init) / TRAINER_FILE).is_file():
+                        raise UsageError(f"{flag} {init}: not a run of wolfpack train (no {TRAINER_FILE}); a generation starts from a trainer's state")
             league = new_league(args, league_params(args), out)
         prepare_out(out)
     except (UsageError, ValueError) as e:
@@ -461,7 +463,11 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"selfplay.py: time limit reached before generation {k}", file=sys.stderr)
                 break
             print(f"generation {k}/{args.generations}: {side} learn ({args.pool_sampling} opponents)", file=sys.stderr)
-            done = run_generation(args, out, league, k, side, deadline, rng)
+            try:
+                done = run_generation(args, out, league, k, side, deadline, rng)
+            except UsageError as e:
+                print(f"selfplay.py: error: {e}", file=sys.stderr)
+                return 2
             if done is None:
                 break
             entry = done["member"]
