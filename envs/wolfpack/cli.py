@@ -402,7 +402,8 @@ class RunWriter:
 
         self.plotting = plotting
         self.out, self.resolved, self.plots, self.video = out, resolved, plots, video
-        self.trajectories = plots if trajectories is None else trajectories
+        # None: hunt's default, 20 or the plotted episodes when more (kept_trajectories).
+        self.trajectories = max(TRAJECTORIES_DEFAULT, plots) if trajectories is None else trajectories
         self.count = 0  # episodes finished
         (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
 
