@@ -325,3 +325,14 @@ def test_ctrl_c_stops_promptly_and_keeps_the_models(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped_by"] == "interrupt" and summary["updates"] >= 2
     assert load_policy(out).obs_dim == before_dim()
+
+
+def test_the_recipes_of_both_sides_may_not_set_one_params_key_differently():
+    from wolfpack.learn.recipes import recipes_params_overrides
+
+    wolves, targets = recipe("wolves", "mappo"), recipe("targets", "mappo")
+    merged = recipes_params_overrides({"wolves": wolves, "targets": targets})
+    assert merged["env.last_sighting"] is True and merged["rewards.wolves.collision_penalty"] == 30.0
+    targets["env"] = {"last_sighting": False}
+    with pytest.raises(ValueError, match=r"the recipes of both sides set env.last_sighting differently \(True, False\)"):
+        recipes_params_overrides({"wolves": wolves, "targets": targets})

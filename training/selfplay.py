@@ -65,7 +65,7 @@ import yaml  # noqa: E402
 
 from wolfpack.batch import resolve_params  # noqa: E402
 from wolfpack.config import parse_override  # noqa: E402
-from wolfpack.learn.recipes import ALGOS, params_overrides, recipe  # noqa: E402
+from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides  # noqa: E402
 from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
 from wolfpack.opponents import CONFIG_FILE, side_action_mode  # noqa: E402
 
@@ -149,9 +149,7 @@ def league_params(args) -> dict:
     """The league's scenario: ``--params`` with the recipes' params overrides of both sides
     (reward weights, observation keys such as the wolves' last sighting) and then ``--set``."""
     hp = dict(parse_override(s) for s in args.hps)
-    overrides: dict = {}
-    for side in SIDES:
-        overrides.update(params_overrides(side, recipe(side, args.algo, hp)))
+    overrides = recipes_params_overrides({side: recipe(side, args.algo, hp) for side in SIDES})
     overrides.update(parse_override(s) for s in args.sets)
     return resolve_params(args.params, overrides)
 

@@ -402,8 +402,7 @@ class RunWriter:
 
         self.plotting = plotting
         self.out, self.resolved, self.plots, self.video = out, resolved, plots, video
-        # None: hunt's default, 20 or the plotted episodes when more (kept_trajectories).
-        self.trajectories = max(TRAJECTORIES_DEFAULT, plots) if trajectories is None else trajectories
+        self.trajectories = default_trajectories(plots) if trajectories is None else trajectories
         self.count = 0  # episodes finished
         (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
 
@@ -566,20 +565,27 @@ def _chunk_size(episodes: int, threads: int | None, streaming: bool) -> int:
     return max(1, min(episodes, per_thread * (threads or _cores())))
 
 
+def default_trajectories(plots: int) -> int:
+    """Episodes whose trajectory.npz ``hunt --out`` keeps without ``--trajectories``: 20, or the
+    plotted episodes when more."""
+    return max(TRAJECTORIES_DEFAULT, plots)
+
+
 def kept_trajectories(args) -> int:
     """How many episodes' trajectory.npz ``hunt --out`` writes (``--trajectories``)."""
     if args.trajectories == "all":
         return args.episodes
-    return min(args.episodes, max(TRAJECTORIES_DEFAULT, args.plots) if args.trajectories is None else args.trajectories)
+    return min(args.episodes, default_trajectories(args.plots) if args.trajectories is None else args.trajectories)
 
 
 def _warn_if_large(args, resolved: dict) -> None:
     """One line on stderr before a run whose files would pass ~1 GB: what it will write."""
     w = resolved["world"]
     each = TRAJECTORY_BYTES * w["max_steps"] / 300 * (w["wolves"] + w["targets"]) / 6
-    total = kept_trajectories(args) * each
+    files = kept_trajectories(args)
+    total = files * each
     if total > 1e9:
-        print(f"{PROG}: note: --out keeps {kept_trajectories(args):,} trajectory.npz files, about {total / 1e9:.1f} GB "
+        print(f"{PROG}: note: --out keeps {files:,} trajectory.npz files, about {total / 1e9:.1f} GB "
               f"(~{each / 1e3:.0f} KB each); --trajectories N keeps fewer", file=sys.stderr)
 
 

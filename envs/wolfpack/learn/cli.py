@@ -9,7 +9,7 @@ import shlex
 from pathlib import Path
 from typing import Any, Sequence
 
-from wolfpack.learn.recipes import ALGOS, LEARNERS, params_overrides, recipe
+from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
 
 DEVICES = ("auto", "cpu", "cuda")
 
@@ -189,13 +189,7 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
     recipes = {side: recipe(side, algo, hp) for side in sides}
     # The recipes' params overrides first (reward weights, observation keys), the run's own
     # --set after them (they win).
-    from_recipes: dict = {}
-    for side in sides:
-        for key, value in params_overrides(side, recipes[side]).items():
-            if from_recipes.get(key, value) != value:
-                raise ValueError(f"the recipes of both sides set {key} differently ({from_recipes[key]!r}, {value!r}): choose with --set {key}=...")
-            from_recipes[key] = value
-    overrides = {**from_recipes, **overrides}
+    overrides = {**recipes_params_overrides(recipes), **overrides}
     other = {"wolves": "targets", "targets": "wolves"}.get(learners)
     if opponent is not None and other and str(opponent) in SCRIPTED_LAWS[other]:
         # A law opponent is the params' law of that side: the saved models then say in their

@@ -64,6 +64,18 @@ def _check(r: dict) -> None:
     need("env", isinstance(r["env"], dict), "a mapping of learning-interface keys (params env.*)")
 
 
+def recipes_params_overrides(recipes: Mapping[str, dict]) -> dict:
+    """The params overrides of every side's recipe (``{side: recipe}``) together; two recipes
+    that set one key differently are a ValueError naming it."""
+    merged: dict = {}
+    for side, r in recipes.items():
+        for key, value in params_overrides(side, r).items():
+            if merged.get(key, value) != value:
+                raise ValueError(f"the recipes of both sides set {key} differently ({merged[key]!r}, {value!r}): choose with --set {key}=...")
+            merged[key] = value
+    return merged
+
+
 def params_overrides(side: str, r: dict) -> dict:
     """The recipe's params overrides: its reward weights (``rewards.<side>.<key>``) and its
     learning-interface keys (``env.<key>``). Neither changes the world or how an episode ends
