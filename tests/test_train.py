@@ -336,3 +336,37 @@ def test_the_recipes_of_both_sides_may_not_set_one_params_key_differently():
     targets["env"] = {"last_sighting": False}
     with pytest.raises(ValueError, match=r"the recipes of both sides set env.last_sighting differently \(True, False\)"):
         recipes_params_overrides({"wolves": wolves, "targets": targets})
+
+
+def test_an_opponent_pool_draws_every_member_reproducibly_and_evaluates_the_first(both_run, tmp_path, monkeypatch):
+    trained_targets = str(both_run[0] / "targets")
+    drawn: list[list[str]] = []
+
+    def recording(set_opponent):
+        def wrapper(self, opponent):
+            drawn[-1].append(getattr(opponent, "name", str(opponent)))
+            return set_opponent(self, opponent)
+
+        return wrapper
+
+    monkeypatch.setattr(wolfpack.BatchEnv, "set_opponent", recording(wolfpack.BatchEnv.set_opponent))
+    pool = ["escape", "still", trained_targets]
+    # The both-sides run's targets saw the plain wolves' observations; so do these wolves.
+    plain = {**SHORT, "env.last_sighting": False}
+    for run in ("a", "b"):
+        drawn.append([])
+        summary = tiny_train(tmp_path / run, timesteps=8_000, opponent=pool, overrides=plain, seed=3)
+    assert drawn[0] == drawn[1] and len(drawn[0]) == summary["updates"] - 1
+    assert {"escape", "still"} <= set(drawn[0]) and any(name not in ("escape", "still") for name in drawn[0])
+    assert summary["final_evaluation"]["wolves"]["targets"] == "escape"
+    model = load_policy(tmp_path / "a")
+    assert model.config["opponent"] == "escape" and model.config["opponent_pool"] == pool
+
+
+def test_every_pool_member_is_checked_before_anything_is_written(both_run, cli, tmp_path):
+    out, _ = both_run
+    result = cli("train", "--side", "wolves", "--out", tmp_path / "a", "--time-limit", "1", "--opponent", "escape", "--opponent", "bvc")
+    assert result.returncode == 2 and "'bvc' drives the wolves" in result.stderr and not (tmp_path / "a").exists(), result.stderr
+    # The both-sides run's targets see 16 lidar rays; with 8 rays the pool's second member does not fit.
+    result = cli("train", "--side", "wolves", "--out", tmp_path / "b", "--time-limit", "1", "--opponent", "escape", "--opponent", out / "targets", "--set", "env.lidar.rays=8")
+    assert result.returncode == 2 and "observations" in result.stderr and not (tmp_path / "b").exists(), result.stderr

@@ -21,7 +21,10 @@ own observation (independent PPO with parameter sharing). --algo mappo (default)
 actor, and a centralised critic that reads the world's global state (BatchEnv.state()) with
 the agent's own observation. --side both: wolves and targets learn together in the same
 worlds, each side with its own networks and optimiser; otherwise the other side follows
---opponent (a law's name or a saved model; default: its law in params).
+--opponent (a law's name or a saved model; default: its law in params). --opponent given
+more than once makes a pool: before every rollout one of them is drawn uniformly (give one
+twice to draw it twice as often) and takes over the other side in every world; the first is the
+one the held-out evaluations play.
 
 --imitate MINUTES first clones each learning side's scripted law (params policies.<side>, the
 laws' actions from BatchEnv.expert_actions()) into the same actor with DAgger, then trains it
@@ -58,6 +61,7 @@ TRAIN_EPILOG = """\
 examples:
   wolfpack train --side wolves --time-limit 15 --out runs/wolves
   wolfpack train --side targets --algo ippo --opponent bvc --time-limit 10 --out runs/escape
+  wolfpack train --side wolves --opponent escape --opponent results/models/escape_ppo --time-limit 15 --out runs/pool
   wolfpack train --side both --timesteps 20000000 --seed 3 --out runs/both
   wolfpack train --side wolves --out runs/wolves --resume --time-limit 15"""
 
@@ -74,7 +78,7 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--time-limit", metavar="MIN", type=_positive_minutes, default=None, help="stop after this many minutes of this invocation")
     p.add_argument("--timesteps", metavar="N", type=_int_at_least(1), default=None, help="stop after this many agent-steps in all")
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds (default 0)")
-    p.add_argument("--opponent", metavar="LAW_OR_MODEL", default=None, help="what drives the other side: a law (seed000, bvc, formation / escape, random, still) or a saved model (default: its law in params)")
+    p.add_argument("--opponent", metavar="LAW_OR_MODEL", action="append", default=None, help="what drives the other side: a law (seed000, bvc, formation / escape, random, still) or a saved model (default: its law in params); repeated: a pool, one drawn per rollout, the first evaluated")
     p.add_argument("--params", metavar="P", default=None, help="scenario YAML (default: the packaged params.yaml)")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="params override, e.g. --set world.wolves=8 (repeatable)")
     p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
@@ -174,8 +178,10 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         raise ValueError(f"--imitate must be > 0 minutes, got {imitate_min}")
     if imitate_min is not None and time_limit_min is not None and imitate_min >= time_limit_min:
         raise ValueError(f"--imitate {imitate_min:g} must be shorter than --time-limit {time_limit_min:g}: imitation is part of the time limit")
-    if opponent is not None and learners == "both":
+    pool = [str(o) for o in ([opponent] if isinstance(opponent, (str, os.PathLike)) else (opponent or []))]
+    if pool and learners == "both":
         raise ValueError("--opponent: with --side both there is no other side for it to drive")
+    opponent = pool[0] if pool else None
     try:
         import torch
     except ImportError:
@@ -197,7 +203,7 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         overrides[f"policies.{other}"] = str(opponent)
     resolved = resolve_params(params, overrides)
     cores_env, cores_torch = default_threads()
-    spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=str(opponent) if opponent is not None else None,
+    spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=opponent, opponent_pool=tuple(pool),
                      timesteps=timesteps, time_limit_min=time_limit_min, threads=threads or cores_env, torch_threads=torch_threads or cores_torch,
                      device=device, eval_episodes=eval_episodes, evaluations=evaluations, imitate_min=imitate_min, command=command)
     out = Path(out)

@@ -56,7 +56,9 @@ CAPTURED, COLLISION, TIMEOUT, CORNERED = (OUTCOMES.index(k) for k in ("captured"
 class TrainSpec:
     """What a run trains: ``learners`` (``wolves``, ``targets`` or ``both``), ``algo``
     (``ippo`` or ``mappo``), the validated ``params``, each learning side's ``recipes``, the
-    ``opponent`` of a one-sided run (None: the params' law), and how it runs."""
+    ``opponent`` of a one-sided run (None: the params' law; it is what the held-out evaluations
+    play), the ``opponent_pool`` (more than one: the other side's drivers, one drawn uniformly
+    for each rollout; ``opponent`` is its first), and how it runs."""
 
     learners: str
     algo: str
@@ -64,6 +66,7 @@ class TrainSpec:
     recipes: dict[str, dict]
     seed: int = 0
     opponent: str | None = None
+    opponent_pool: tuple[str, ...] = ()
     timesteps: int | None = None
     time_limit_min: float | None = None
     threads: int | None = None
@@ -81,8 +84,11 @@ class TrainSpec:
 
     def identity(self) -> dict:
         """What must match for ``--resume`` to continue a run: the sides, algorithm, opponent,
-        params, recipes and seed."""
-        return {"learners": self.learners, "algo": self.algo, "opponent": self.opponent, "params": self.params, "recipes": self.recipes, "seed": self.seed}
+        params, recipes and seed (and the opponent pool, when there is one)."""
+        identity = {"learners": self.learners, "algo": self.algo, "opponent": self.opponent, "params": self.params, "recipes": self.recipes, "seed": self.seed}
+        if len(self.opponent_pool) > 1:
+            identity["opponent_pool"] = list(self.opponent_pool)
+        return identity
 
 
 
@@ -101,11 +107,13 @@ class Trainer:
     ``opponents``, for leagues: a function that draws the other side's driver (anything
     ``opponent=`` takes) for each rollout; the batch starts with the first draw and swaps in the
     next one before every later rollout without resetting any world (``set_opponent``). It
-    replaces ``spec.opponent`` while training; evaluations stay against ``spec.opponent``."""
+    replaces ``spec.opponent`` while training; evaluations stay against ``spec.opponent``.
+    Without it, a ``spec.opponent_pool`` of more than one driver draws the same way: uniformly,
+    from a generator seeded by the run's seed and the update's number (a resumed run draws as
+    the uninterrupted one would)."""
 
     def __init__(self, spec: TrainSpec, out: Path, *, resume: bool = False, progress: bool = True, opponents: Callable[[], Any] | None = None) -> None:
         self.spec, self.out, self.progress = spec, Path(out), progress
-        self.opponents = opponents
         self.device = torch.device(spec.device)
         wolves_recipe = spec.recipes[spec.sides[0]]
         self.num_envs, self.n_steps = int(wolves_recipe["num_envs"]), int(wolves_recipe["n_steps"])
@@ -122,9 +130,14 @@ class Trainer:
         if state is not None:
             self.resumes = int(state["resumes"]) + 1
         learners = "all" if spec.learners == "both" else spec.learners
+        if opponents is None and len(spec.opponent_pool) > 1:
+            opponents = self._pool_draw(int(state["updates"]) if state is not None else 0)
+        self.opponents = opponents
         opponent = self._opponent() if opponents is None else opponents()
         world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
         self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent)
+        for member in getattr(self, "_pool", ()):  # every pool member fits these worlds, up front
+            self.env._check_opponent_fits(member)
         self.learners: dict[str, SideLearner] = {}
         for side in spec.sides:
             self.learners[side] = SideLearner(
@@ -147,6 +160,26 @@ class Trainer:
         opp = as_opponent(self.spec.opponent)
         opponent_side(opp, self.spec.learners)  # a ValueError when it would drive a learning side
         return opp
+
+    def _pool_draw(self, first_update: int) -> Callable[[], Opponent]:
+        """The draw of ``spec.opponent_pool``: each driver loaded once and checked against the
+        learning side; the n-th call (counting from ``first_update``) picks with a generator
+        seeded by (seed, n)."""
+        pool: dict[str, Opponent] = {}
+        for name in self.spec.opponent_pool:
+            if name not in pool:
+                pool[name] = as_opponent(name)
+                opponent_side(pool[name], self.spec.learners)
+        drivers = [pool[name] for name in self.spec.opponent_pool]  # a repeated one weighs more
+        self._pool = list(pool.values())
+        calls = [first_update]
+
+        def draw() -> Opponent:
+            k = int(np.random.default_rng([self.spec.seed, calls[0]]).integers(len(drivers)))
+            calls[0] += 1
+            return drivers[k]
+
+        return draw
 
     def start_from(self, learner_states: dict[str, dict]) -> None:
         """Starts each side in ``learner_states`` (side -> the ``learners`` entry of a
@@ -393,6 +426,7 @@ class Trainer:
                 "network": learner.network,
                 "recipe": self.spec.recipes[side],
                 "opponent": self.spec.opponent,
+                "opponent_pool": list(self.spec.opponent_pool) if len(self.spec.opponent_pool) > 1 else None,
                 "seed": self.spec.seed,
                 "command": self.spec.command,
                 "versions": versions(),
