@@ -1,5 +1,6 @@
-"""Every Python block of README.md runs as written (extracted from README.md itself), each in a
-fresh interpreter, in a scratch folder."""
+"""Every Python block of README.md and of the docs pages that carry README's moved examples runs
+as written (extracted from the files themselves), each in a fresh interpreter, in a scratch
+folder."""
 
 from __future__ import annotations
 
@@ -10,18 +11,28 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
-BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+# The pages README's sections moved to (README links to them); their examples are README's.
+DOCS = [ROOT / "docs" / name for name in ("scenario.md", "guide.md", "learning.md")]
+
+
+def python_blocks(path: Path) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", path.read_text(), flags=re.S)
+
+
+# (file, index within the file, code)
+BLOCKS = [(path.name, k, code) for path in [README, *DOCS] for k, code in enumerate(python_blocks(path))]
 
 
 def test_readme_has_python_blocks():
-    assert len(BLOCKS) >= 3
+    assert len(python_blocks(README)) >= 1
+    assert len(BLOCKS) >= 4
 
 
-@pytest.mark.parametrize("index", range(len(BLOCKS)), ids=[f"block{k}" for k in range(len(BLOCKS))])
-def test_readme_python_block_runs_as_written(index, tmp_path):
-    code = BLOCKS[index]
+@pytest.mark.parametrize(("name", "index", "code"), BLOCKS, ids=[f"{name}-block{k}" for name, k, _ in BLOCKS])
+def test_readme_python_block_runs_as_written(name, index, code, tmp_path):
     # The timeout guards against a hang; how long the examples take is measured, not asserted
-    # (README states it).
+    # (the text around each block states it).
     done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=900)
-    assert done.returncode == 0, f"README block {index} failed:\n{code}\n--- stderr ---\n{done.stderr[-3000:]}"
+    assert done.returncode == 0, f"{name} block {index} failed:\n{code}\n--- stderr ---\n{done.stderr[-3000:]}"

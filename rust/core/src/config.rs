@@ -467,7 +467,7 @@ pub struct AvoidanceParams {
     /// gives 1.2, the published reference used 1.6 (one item) / 1.3 (several), and the
     /// documented scenario's published outcomes were produced with those, so they are the
     /// default (SPEC §4's decision). The document's 1.2 lets the escape target hug the walls,
-    /// where four wolves cannot close around it (measured in README's scenario section).
+    /// where four wolves cannot close around it (measured in docs/scenario.md).
     pub target_single: KappaRow,
     pub target_multi: KappaRow,
 }

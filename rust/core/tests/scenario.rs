@@ -7,7 +7,7 @@
 //! collisions, median ≤ 170. Measured here (defaults: the target's wall κ 1.6 / 1.3 as the
 //! reference, SPEC §4): 98.0% / 0.0% / 160 on these 200 episodes, 98.1% / 0.1% / 160 on 1000.
 //! With the source document's κ 1.2 for the target's walls: 94.0% / 0.0% / 179 and
-//! 95.4% / 0.2% / 186 (README, "The scenario").
+//! 95.4% / 0.2% / 186 (docs/scenario.md).
 //!
 //! The `#[ignore]`d tests are diagnostics (run with `-- --ignored --nocapture`): `sweep` (a
 //! larger sample, `N` episodes), `failures` (what ended each failed episode), `trace` (which
