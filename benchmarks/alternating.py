@@ -4,7 +4,7 @@
 Training loops often keep more than one batch: a training and an evaluation batch, or one
 batch per side of a league. Each batch has threads of its own that wait awake for its next
 step for a short while; this measures whether two batches stepped in turn get in each other's
-way (before the fix in the fifth issue-17 session: on 2 cores, two E = 64 batches ran at
+way (before the batch had a crew of its own: on 2 cores, two E = 64 batches ran at
 ≈ 0.2 M env-steps/s in turn against ≈ 0.6 M for one). See BENCHMARKS.md.
 
     python benchmarks/alternating.py                     # E = 64 and 1024, 2 threads

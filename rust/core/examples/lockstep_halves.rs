@@ -2,8 +2,8 @@
 //! one per thread, stepped in lockstep (the second thread spins until the first starts a
 //! step; the first spins until both are done). Nothing is shared but the two counters, no world
 //! ever changes threads, and each half allocates its own outputs, so this is what the shared
-//! batch's scheduling (crew, home runs, stealing) could at best reach (BENCHMARKS.md, "Issue
-//! 17, fifth session").
+//! batch's scheduling (crew, home runs, stealing) could at best reach (BENCHMARKS.md,
+//! "Optimisations").
 //!
 //! ```text
 //! cargo build --release -p wolfpack-core --example lockstep_halves

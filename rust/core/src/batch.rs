@@ -114,7 +114,7 @@ const MAX_CHUNK: usize = 16;
 /// 2–5 % faster on one thread and 4–9 % on two, E = 64 4 %; above, the worlds come from memory
 /// and the hints pay: E = 4,096 on one thread +17 %, E = 8,192 +8 % on one thread and +2–3 % on
 /// two; at 2,048 per thread it was even (steady-state runs after 1.5 M env-steps of warm-up,
-/// interleaved, BENCHMARKS "Issue 17, fifth session").
+/// interleaved, BENCHMARKS.md, "Optimisations").
 const PREFETCH_FROM: usize = 2048;
 
 /// Most worlds one batch may hold.
@@ -414,7 +414,7 @@ impl BatchEnv {
     /// The final observations stay `calloc`'d: a world writes its piece only when its episode
     /// ends. (The allocators reuse the last step's blocks and clear them with a `memset`, 3 % of
     /// a one-thread step at E = 8,192; zeroing them in the worlds' tasks instead, as for the
-    /// observations, measured no faster on one thread or two: BENCHMARKS.md, eighth session.)
+    /// observations, measured no faster on one thread or two: BENCHMARKS.md, "Optimisations".)
     fn alloc(&self) -> (StepOutput, ObsLens) {
         let e = self.slots.len();
         let (n, m) = (self.n_wolves(), self.n_targets());

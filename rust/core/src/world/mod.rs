@@ -245,7 +245,7 @@ impl World {
     /// with `*self = fresh`, each autoreset left the world's ≈ 50 lists at whatever addresses
     /// the allocator had free, scattered over the heap, and a batch of 8,192 that had run a
     /// few hundred steps stepped ≈ 200 k env-steps/s on one thread against ≈ 245 k when freshly
-    /// built (≈ 225 k with `adopt`; BENCHMARKS, "Issue 17, fifth session").
+    /// built (≈ 225 k with `adopt`; BENCHMARKS.md, "Optimisations").
     pub(crate) fn adopt(&mut self, fresh: World) {
         // Destructured, so that a field added to World does not compile until it is handled.
         let World {
