@@ -15,7 +15,8 @@ interval stays in the JSON.
 
 Writes into --out: seeds.json (every row), seeds.md (the table) and curves.png (the held-out
 evaluations during training against training minutes: median over seeds with the range
-shaded, capture or survival and wolf collisions).
+shaded, capture or survival and wolf collisions; ``--curves-by steps``: against agent-steps,
+for runs whose wall time another load shared).
 """
 
 from __future__ import annotations
@@ -51,9 +52,13 @@ def iqm_interval(values: list[float], resamples: int = 10_000) -> dict:
 
 def opponents_of(side: str, specs: list[str]) -> list:
     """The --against policies of the other side: laws by name, models loaded, leagues expanded."""
+    from wolfpack.opponents import SCRIPTED_LAWS
+
     out = []
     for spec in specs:
         if not Path(spec).exists():
+            if spec not in SCRIPTED_LAWS[OTHER[side]]:
+                raise UsageError(f"--against {spec}: not a law of the {OTHER[side]} ({', '.join(SCRIPTED_LAWS[OTHER[side]])}) nor a model or league folder")
             out.append(spec)
             continue
         for path in expand_models([spec]):
@@ -67,7 +72,7 @@ def skill(side: str, row: dict) -> float:
     return row["capture_rate"] if side == "wolves" else row["survival_rate"]
 
 
-def curves(out: Path, runs: list[Path], side: str) -> None:
+def curves(out: Path, runs: list[Path], side: str, axis: str = "minutes", opponent: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -76,7 +81,8 @@ def curves(out: Path, runs: list[Path], side: str) -> None:
     series = []
     for run in runs:
         evals = [e for e in json.loads((run / "evaluations.json").read_text()) if e.get("phase", "ppo") == "ppo"]
-        series.append((np.array([e["train_s"] / 60 for e in evals]), np.array([skill(side, e[side]) for e in evals]), np.array([e[side]["collision_rate"] for e in evals])))
+        x = [e["train_s"] / 60 for e in evals] if axis == "minutes" else [e["agent_steps"] / 1e6 for e in evals]
+        series.append((np.array(x), np.array([skill(side, e[side]) for e in evals]), np.array([e[side]["collision_rate"] for e in evals])))
     grid = np.linspace(max(s[0][0] for s in series), min(s[0][-1] for s in series), 60)
     fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
     what = "captured (held-out)" if side == "wolves" else "survived (held-out)"
@@ -84,12 +90,13 @@ def curves(out: Path, runs: list[Path], side: str) -> None:
         ys = np.array([np.interp(grid, t, v, left=np.nan) for t, *vals in series for v in [vals[k]]])
         ax.plot(grid, 100 * np.nanmedian(ys, axis=0), color=colour, label=f"{label}: median of {len(series)} seeds")
         ax.fill_between(grid, 100 * np.nanmin(ys, axis=0), 100 * np.nanmax(ys, axis=0), color=colour, alpha=0.2, label=f"{label}: range")
-    ax.set_xlabel("training wall time (min, evaluations excluded)")
+    ax.set_xlabel("training wall time (min, evaluations excluded)" if axis == "minutes" else "agent-steps trained (millions)")
     ax.set_ylabel("% of held-out episodes")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="center right")
-    ax.set_title(f"{side}: {len(series)} training seeds, {series[0][0].size} evaluations each", fontsize=10)
+    against = f" against {opponent}" if opponent else ""
+    ax.set_title(f"{side}{against}: {len(series)} training seeds, {series[0][0].size} evaluations each on held-out episodes", fontsize=10)
     fig.savefig(out / "curves.png", dpi=120)
     plt.close(fig)
 
@@ -100,6 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--episodes", type=positive_int, default=200, help="episodes per evaluation (default 200)")
     p.add_argument("--seed", type=seed_int, default=0, help="first episode seed (default 0: wolfpack hunt's episodes)")
     p.add_argument("--against", action="append", default=[], metavar="POLICY", help="also evaluate against this law, model or league (repeatable)")
+    p.add_argument("--curves-by", choices=("minutes", "steps"), default="minutes", help="the curves' x axis: training wall time (default) or agent-steps (runs that shared the machine)")
     p.add_argument("--out", required=True, help="output folder")
     args = p.parse_args(argv)
     try:
@@ -134,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
                      f"| {100 * c['iqm']:.1f} % [{100 * c['ci95'][0]:.1f}, {100 * c['ci95'][1]:.1f}] | {np.median(steps) if steps else '—'} |")
     (out / "seeds.json").write_text(json.dumps(doc, indent=1) + "\n")
     (out / "seeds.md").write_text("\n".join(lines) + "\n")
-    curves(out, [Path(r) for r in args.runs], side)
+    curves(out, [Path(r) for r in args.runs], side, args.curves_by, opponent=next(iter(per_opponent)))
     print("\n".join(lines))
     return 0
 
