@@ -36,6 +36,7 @@ BAD_ARGS = [
     (["--set", "capture.cornered=sometimes"], "capture.cornered"),
     (["--set", "capture.rule=surround"], "capture.rule"),
     (["--set", "obstacles.static_polygons=500"], "spawn: could not place static polygon"),  # infeasible
+    (["--set", "world.wolves=200"], "too small for world.wolves = 200"),  # the crowd, not the obstacle it crowds out
     (["--set", "policies.targets=flee"], "policies.targets"),  # unknown policy names
     (["--set", "policies.wolves=lion"], "policies.wolves"),
     (["--targets", "flee"], "--targets"),

@@ -736,3 +736,33 @@ def test_a_missing_optional_dependency_names_the_extra(monkeypatch, tmp_path):
     monkeypatch.setitem(sys.modules, "torch", None)
     with pytest.raises(ImportError, match=r"the model X needs torch, .*wolfpack\[train\]"):
         require("torch", "the model X")
+
+
+def test_one_env_stepped_from_two_threads_at_once_says_so():
+    """A step releases the GIL while the worlds move; a second thread's call on the same env in
+    that time is refused with a message a person understands (not pyo3's "Already borrowed"),
+    and the env goes on stepping afterwards."""
+    import threading
+
+    env = wolfpack.BatchEnv(num_envs=2048, threads=1, seed=0)
+    env.reset(seed=0)
+    actions = np.zeros((env.num_envs, env.n_wolves, 2), np.float32)
+    errors: list[str] = []
+    go = threading.Barrier(2)
+
+    def stepper() -> None:
+        go.wait()
+        try:
+            for _ in range(200):
+                env.step(actions)
+        except RuntimeError as e:
+            errors.append(str(e))
+
+    threads = [threading.Thread(target=stepper) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors, "the two threads never overlapped"
+    assert all("in use by another thread" in e and "give each thread its own env" in e for e in errors), errors
+    assert env.step(actions)["obs_wolves"].shape[0] == env.num_envs

@@ -25,7 +25,7 @@ use wolfpack_core::{Error, Params};
 /// The extension's Rust allocations (the worlds, their obstacles and vertex lists, the step's
 /// outputs) come from mimalloc, not glibc's malloc. Measured: a batch of 8,192 worlds (≈ 94 MB
 /// of state, far beyond the caches) steps 7–10 % faster; smaller batches and the scripted hunt
-/// are unchanged (BENCHMARKS.md, "Issue 17, seventh session"). Most likely its size-segregated
+/// are unchanged (BENCHMARKS.md, "Optimisations"). Most likely its size-segregated
 /// pages without per-block headers pack a batch's ≈ 54 small allocations per world more densely
 /// than glibc does. Python's own objects keep Python's allocator; numpy arrays made from Rust
 /// vectors are freed by Rust. `local_dynamic_tls`: Python loads this library with dlopen, after
@@ -427,6 +427,19 @@ struct PyBatchEnv {
     inner: BatchEnv,
 }
 
+/// One env takes one call at a time (its calls release the GIL while the worlds step): a call
+/// made while another thread is inside one gets this error instead of pyo3's "Already borrowed".
+const BUSY: &str = "this env is in use by another thread right now (a step, reset or read is under way there): \
+                    one env takes one call at a time; give each thread its own env, or hold a lock around its calls";
+
+fn exclusive<'py>(slf: &Bound<'py, PyBatchEnv>) -> PyResult<PyRefMut<'py, PyBatchEnv>> {
+    slf.try_borrow_mut().map_err(|_| PyRuntimeError::new_err(BUSY))
+}
+
+fn shared<'py>(slf: &Bound<'py, PyBatchEnv>) -> PyResult<PyRef<'py, PyBatchEnv>> {
+    slf.try_borrow().map_err(|_| PyRuntimeError::new_err(BUSY))
+}
+
 #[pymethods]
 impl PyBatchEnv {
     #[new]
@@ -443,64 +456,73 @@ impl PyBatchEnv {
     }
 
     #[getter]
-    fn num_envs(&self) -> usize {
-        self.inner.num_envs()
+    fn num_envs(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = shared(slf)?;
+        Ok(this.inner.num_envs())
     }
     #[getter]
-    fn n_wolves(&self) -> usize {
-        self.inner.n_wolves()
+    fn n_wolves(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = shared(slf)?;
+        Ok(this.inner.n_wolves())
     }
     #[getter]
-    fn n_targets(&self) -> usize {
-        self.inner.n_targets()
+    fn n_targets(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = shared(slf)?;
+        Ok(this.inner.n_targets())
     }
     #[getter]
-    fn wolf_obs_dim(&self) -> usize {
-        self.inner.wolf_obs_dim()
+    fn wolf_obs_dim(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = shared(slf)?;
+        Ok(this.inner.wolf_obs_dim())
     }
     #[getter]
-    fn target_obs_dim(&self) -> usize {
-        self.inner.target_obs_dim()
+    fn target_obs_dim(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = shared(slf)?;
+        Ok(this.inner.target_obs_dim())
     }
     /// The params in force, complete and resolved (`capture.count` filled in).
     #[getter]
-    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        params_to_py(py, &self.inner.params().resolved())
+    fn params<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let this = shared(slf)?;
+        params_to_py(py, &this.inner.params().resolved())
     }
 
     /// Resets every world (world i seeded `seed + i` when a seed is given, else its next
     /// episode). Returns the output dict with observations and infos.
     #[pyo3(signature = (seed=None))]
-    fn reset<'py>(&mut self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyDict>> {
-        let env = &mut self.inner;
+    fn reset<'py>(slf: &Bound<'py, Self>, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyDict>> {
+        let mut this = exclusive(slf)?;
+        let env = &mut this.inner;
         let stop = AtomicBool::new(false);
         let out = interruptible(py, &stop, || guarded(|| env.reset_until(seed, &stop))?.map_err(value_error))?;
-        step_output_to_py(py, &self.inner, out)
+        step_output_to_py(py, &this.inner, out)
     }
 
     /// Resets world `index` alone, optionally seeded and from a LAYOUT dict.
     #[pyo3(signature = (index, seed=None, layout=None))]
-    fn reset_world<'py>(&mut self, py: Python<'py>, index: usize, seed: Option<u64>, layout: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+    fn reset_world<'py>(slf: &Bound<'py, Self>, py: Python<'py>, index: usize, seed: Option<u64>, layout: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let mut this = exclusive(slf)?;
         let l = match layout {
             Some(obj) => layout_from(obj)?,
             None => None,
         };
-        let env = &mut self.inner;
+        let env = &mut this.inner;
         let out = py.detach(|| guarded(|| env.reset_world(index, seed, l.as_ref())))?.map_err(value_error)?;
-        step_output_to_py(py, &self.inner, out)
+        step_output_to_py(py, &this.inner, out)
     }
 
     /// One step. `wolf_actions` [E, N, 2] and `target_actions` [E, M, 2], float32, C-contiguous,
     /// given for (and only for) the learning sides.
     #[pyo3(signature = (wolf_actions=None, target_actions=None))]
-    fn step<'py>(&mut self, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
-        let e = self.inner.num_envs();
-        let wa = actions_from(wolf_actions, "wolf", [e, self.inner.n_wolves(), 2])?;
-        let ta = actions_from(target_actions, "target", [e, self.inner.n_targets(), 2])?;
+    fn step<'py>(slf: &Bound<'py, Self>, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let mut this = exclusive(slf)?;
+        let e = this.inner.num_envs();
+        let wa = actions_from(wolf_actions, "wolf", [e, this.inner.n_wolves(), 2])?;
+        let ta = actions_from(target_actions, "target", [e, this.inner.n_targets(), 2])?;
         let (ws, ts) = (slice_of(&wa)?, slice_of(&ta)?);
-        let env = &mut self.inner;
+        let env = &mut this.inner;
         let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
-        step_output_to_py(py, &self.inner, out)
+        step_output_to_py(py, &this.inner, out)
     }
 
     /// `step` when the actions are exactly what it takes (float32, C-contiguous, [E, K, 2],
@@ -508,14 +530,15 @@ impl PyBatchEnv {
     /// (`wolfpack.BatchEnv.step`) then checks and converts them and calls `step`. Errors of
     /// the step itself (a non-finite action) are raised as `step` raises them.
     #[pyo3(signature = (wolf_actions=None, target_actions=None))]
-    fn try_step<'py>(&mut self, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some((wa, ta)) = exact_step_actions(&self.inner, wolf_actions, target_actions) else {
+    fn try_step<'py>(slf: &Bound<'py, Self>, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let mut this = exclusive(slf)?;
+        let Some((wa, ta)) = exact_step_actions(&this.inner, wolf_actions, target_actions) else {
             return Ok(None);
         };
         let (ws, ts) = (slice_of(&wa)?, slice_of(&ta)?);
-        let env = &mut self.inner;
+        let env = &mut this.inner;
         let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
-        step_output_to_py(py, &self.inner, out).map(Some)
+        step_output_to_py(py, &this.inner, out).map(Some)
     }
 
     /// For wolfpack's SB3 VecEnv (`wolfpack.vec_env`), whose slots are the learning agents of
@@ -529,10 +552,11 @@ impl PyBatchEnv {
     /// when one side learns, (obs_wolves [E, N, Dw], obs_targets [E, M, Dt]) when both do;
     /// final_obs the same for the last observations of the episodes that ended, or None when
     /// no world ended this step. Errors as `step` raises them.
-    fn step_slots<'py>(&mut self, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<Option<Bound<'py, PyTuple>>> {
-        let (e, n, m) = (self.inner.num_envs(), self.inner.n_wolves(), self.inner.n_targets());
-        let (dw, dt) = (self.inner.wolf_obs_dim(), self.inner.target_obs_dim());
-        let l = self.inner.learners();
+    fn step_slots<'py>(slf: &Bound<'py, Self>, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<Option<Bound<'py, PyTuple>>> {
+        let mut this = exclusive(slf)?;
+        let (e, n, m) = (this.inner.num_envs(), this.inner.n_wolves(), this.inner.n_targets());
+        let (dw, dt) = (this.inner.wolf_obs_dim(), this.inner.target_obs_dim());
+        let l = this.inner.learners();
         let k = if l.wolves() { n } else { 0 } + if l.targets() { m } else { 0 };
         if k == 0 {
             return Ok(None);
@@ -557,7 +581,7 @@ impl PyBatchEnv {
             (true, false) => (flat, &[]),
             _ => (&[], flat),
         };
-        let env = &mut self.inner;
+        let env = &mut this.inner;
         let o = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
         let done_world: Vec<bool> = o.terminated.iter().zip(&o.truncated).map(|(a, b)| *a || *b).collect();
         let ended = done_world.iter().any(|d| *d);
@@ -592,52 +616,58 @@ impl PyBatchEnv {
 
     /// The current observations and infos of every world, as a step would return them (no
     /// rewards; nothing moves): for a side that just became driven (`set_drivers`).
-    fn observe<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let env = &mut self.inner;
+    fn observe<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let mut this = exclusive(slf)?;
+        let env = &mut this.inner;
         let out = py.detach(|| guarded(|| env.observe_all()))?;
-        step_output_to_py(py, &self.inner, out)
+        step_output_to_py(py, &this.inner, out)
     }
 
     /// Who drives each side from the next step on, keeping every world: `learners` and a
     /// params dict that differs from this batch's only in `policies.*` and
     /// `env.*action_mode` (wolfpack_core::batch::BatchEnv::set_drivers).
-    fn set_drivers(&mut self, learners: &str, params: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_drivers(slf: &Bound<'_, Self>, learners: &str, params: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut this = exclusive(slf)?;
         let l = Learners::parse(learners).map_err(value_error)?;
         let p = params_from(params)?;
-        let env = &mut self.inner;
+        let env = &mut this.inner;
         guarded(|| env.set_drivers(l, p))?.map_err(value_error)
     }
 
     /// The scripted laws' actions for the learning sides: (wolves [E, N, 2] or None,
     /// targets [E, M, 2] or None), float32.
-    fn expert_actions<'py>(&mut self, py: Python<'py>) -> PyResult<(SideArray<'py>, SideArray<'py>)> {
-        let env = &mut self.inner;
+    fn expert_actions<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<(SideArray<'py>, SideArray<'py>)> {
+        let mut this = exclusive(slf)?;
+        let env = &mut this.inner;
         let (aw, at) = py.detach(|| guarded(|| env.expert_actions()))?;
-        let e = self.inner.num_envs();
-        let l = self.inner.learners();
-        let w = if l.wolves() { Some(array(py, aw, &[e, self.inner.n_wolves(), 2])?) } else { None };
-        let t = if l.targets() { Some(array(py, at, &[e, self.inner.n_targets(), 2])?) } else { None };
+        let e = this.inner.num_envs();
+        let l = this.inner.learners();
+        let w = if l.wolves() { Some(array(py, aw, &[e, this.inner.n_wolves(), 2])?) } else { None };
+        let t = if l.targets() { Some(array(py, at, &[e, this.inner.n_targets(), 2])?) } else { None };
         Ok((w, t))
     }
 
     /// Every world's global state, float32 [E, state_dim] (layout: wolfpack_core::state).
-    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self.inner.state().map_err(value_error)?;
-        array(py, rows, &[self.inner.num_envs(), self.inner.state_dim()])
+    fn state<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let this = shared(slf)?;
+        let rows = this.inner.state().map_err(value_error)?;
+        array(py, rows, &[this.inner.num_envs(), this.inner.state_dim()])
     }
 
     #[getter]
-    fn state_dim(&self) -> usize {
-        self.inner.state_dim()
+    fn state_dim(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = shared(slf)?;
+        Ok(this.inner.state_dim())
     }
 
     /// World `index`'s state: wolves [N, 5] and targets [M, 5] (x, y, θ, v, ω), energy [N+M],
     /// interaction [(N+M), (N+M)] uint8, captured [M], cornered [M] (ever cornered), obstacles (list of dicts: kind, moving,
     /// center, radius, angle, vertices [world], local [at angle 0]), step,
     /// outcome, seed, episode.
-    fn world_state<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
-        let num_envs = self.inner.num_envs();
-        let w = self.inner.world(index).ok_or_else(|| PyValueError::new_err(format!("world index {index} out of range (num_envs = {num_envs})")))?;
+    fn world_state<'py>(slf: &Bound<'py, Self>, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
+        let mut this = exclusive(slf)?;
+        let num_envs = this.inner.num_envs();
+        let w = this.inner.world(index).ok_or_else(|| PyValueError::new_err(format!("world index {index} out of range (num_envs = {num_envs})")))?;
         let (n, m) = (w.n_wolves(), w.n_targets());
         let pose = |a: &wolfpack_core::world::AgentState| [a.pos.x, a.pos.y, a.theta, a.v, a.omega];
         let d = PyDict::new(py);
@@ -663,7 +693,7 @@ impl PyBatchEnv {
         d.set_item("obstacles", obstacles)?;
         d.set_item("step", w.t)?;
         d.set_item("outcome", w.outcome.as_str())?;
-        let (seed, episode) = self.inner.world_seed(index).unwrap_or_default();
+        let (seed, episode) = this.inner.world_seed(index).unwrap_or_default();
         d.set_item("seed", seed)?;
         d.set_item("episode", episode)?;
         Ok(d)

@@ -31,9 +31,13 @@ pub(super) fn spawn(p: &Params, rng: &mut ChaCha8Rng) -> Result<Spawned> {
             Err(why) => last = why,
         }
     }
+    let o = &p.obstacles;
     Err(Error::Spawn(format!(
-        "{last} (after {} attempts each, {} restarts); the arena {:?} is too small for the requested counts and world.init_clearance = {}",
-        p.world.spawn_attempts, p.world.spawn_restarts, p.world.border, p.world.init_clearance
+        "{last} (after {} attempts each, {} restarts): the arena world.border = {:?} is too small for world.wolves = {}, world.targets = {} and \
+         obstacles.static_circles / moving_circles / static_polygons / moving_polygons = {} / {} / {} / {} at world.init_clearance = {} m; \
+         lower one of them or widen world.border",
+        p.world.spawn_attempts, p.world.spawn_restarts, p.world.border, p.world.wolves, p.world.targets,
+        o.static_circles, o.moving_circles, o.static_polygons, o.moving_polygons, p.world.init_clearance
     )))
 }
 
@@ -121,7 +125,13 @@ fn try_spawn(p: &Params, rng: &mut ChaCha8Rng) -> std::result::Result<Spawned, S
                 }
             }
             if !placed {
-                return Err(format!("could not place {name} {} of {count}", k + 1));
+                return Err(format!(
+                    "could not place {name} {} of {count} {d0} m clear of the {} wolves, {} targets and {} obstacles placed before it",
+                    k + 1,
+                    wolves.len(),
+                    targets.len(),
+                    obstacles.len()
+                ));
             }
         }
     }
