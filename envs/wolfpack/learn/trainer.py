@@ -130,13 +130,14 @@ class Trainer:
         if state is not None:
             self.resumes = int(state["resumes"]) + 1
         learners = "all" if spec.learners == "both" else spec.learners
+        pool_members: list[Opponent] = []
         if opponents is None and len(spec.opponent_pool) > 1:
-            opponents = self._pool_draw(int(state["updates"]) if state is not None else 0)
+            opponents, pool_members = self._pool_draw(int(state["updates"]) if state is not None else 0)
         self.opponents = opponents
         opponent = self._opponent() if opponents is None else opponents()
         world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
         self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent)
-        for member in getattr(self, "_pool", ()):  # every pool member fits these worlds, up front
+        for member in pool_members:  # every pool member fits these worlds, up front
             self.env._check_opponent_fits(member)
         self.learners: dict[str, SideLearner] = {}
         for side in spec.sides:
@@ -161,17 +162,16 @@ class Trainer:
         opponent_side(opp, self.spec.learners)  # a ValueError when it would drive a learning side
         return opp
 
-    def _pool_draw(self, first_update: int) -> Callable[[], Opponent]:
-        """The draw of ``spec.opponent_pool``: each driver loaded once and checked against the
-        learning side; the n-th call (counting from ``first_update``) picks with a generator
-        seeded by (seed, n)."""
+    def _pool_draw(self, first_update: int) -> tuple[Callable[[], Opponent], list[Opponent]]:
+        """The draw of ``spec.opponent_pool`` and its distinct members, each loaded once and
+        checked against the learning side; the n-th draw (counting from ``first_update``) picks
+        with a generator seeded by (seed, n)."""
         pool: dict[str, Opponent] = {}
         for name in self.spec.opponent_pool:
             if name not in pool:
                 pool[name] = as_opponent(name)
                 opponent_side(pool[name], self.spec.learners)
         drivers = [pool[name] for name in self.spec.opponent_pool]  # a repeated one weighs more
-        self._pool = list(pool.values())
         calls = [first_update]
 
         def draw() -> Opponent:
@@ -179,7 +179,7 @@ class Trainer:
             calls[0] += 1
             return drivers[k]
 
-        return draw
+        return draw, list(pool.values())
 
     def start_from(self, learner_states: dict[str, dict]) -> None:
         """Starts each side in ``learner_states`` (side -> the ``learners`` entry of a
