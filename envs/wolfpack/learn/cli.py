@@ -197,10 +197,10 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
     # --set after them (they win).
     overrides = {**recipes_params_overrides(recipes), **overrides}
     other = {"wolves": "targets", "targets": "wolves"}.get(learners)
-    if opponent is not None and other and str(opponent) in SCRIPTED_LAWS[other]:
+    if opponent is not None and other and opponent in SCRIPTED_LAWS[other]:
         # A law opponent is the params' law of that side: the saved models then say in their
         # params what they were trained against.
-        overrides[f"policies.{other}"] = str(opponent)
+        overrides[f"policies.{other}"] = opponent
     resolved = resolve_params(params, overrides)
     cores_env, cores_torch = default_threads()
     spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=opponent, opponent_pool=tuple(pool),

@@ -129,10 +129,11 @@ class Trainer:
         state = self._load_resume_state() if resume else None
         if state is not None:
             self.resumes = int(state["resumes"]) + 1
+            self.updates = int(state["updates"])  # before the first draw of an opponent pool
         learners = "all" if spec.learners == "both" else spec.learners
         pool_members: list[Opponent] = []
         if opponents is None and len(spec.opponent_pool) > 1:
-            opponents, pool_members = self._pool_draw(int(state["updates"]) if state is not None else 0)
+            opponents, pool_members = self._pool_draw()
         self.opponents = opponents
         opponent = self._opponent() if opponents is None else opponents()
         world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
@@ -162,22 +163,19 @@ class Trainer:
         opponent_side(opp, self.spec.learners)  # a ValueError when it would drive a learning side
         return opp
 
-    def _pool_draw(self, first_update: int) -> tuple[Callable[[], Opponent], list[Opponent]]:
+    def _pool_draw(self) -> tuple[Callable[[], Opponent], list[Opponent]]:
         """The draw of ``spec.opponent_pool`` and its distinct members, each loaded once and
-        checked against the learning side; the n-th draw (counting from ``first_update``) picks
-        with a generator seeded by (seed, n)."""
+        checked against the learning side; the opponent of the rollout that makes update n + 1
+        is picked with a generator seeded by (seed, n), n = ``self.updates`` at the draw."""
         pool: dict[str, Opponent] = {}
         for name in self.spec.opponent_pool:
             if name not in pool:
                 pool[name] = as_opponent(name)
                 opponent_side(pool[name], self.spec.learners)
         drivers = [pool[name] for name in self.spec.opponent_pool]  # a repeated one weighs more
-        calls = [first_update]
 
         def draw() -> Opponent:
-            k = int(np.random.default_rng([self.spec.seed, calls[0]]).integers(len(drivers)))
-            calls[0] += 1
-            return drivers[k]
+            return drivers[int(np.random.default_rng([self.spec.seed, self.updates]).integers(len(drivers)))]
 
         return draw, list(pool.values())
 
