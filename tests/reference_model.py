@@ -1,4 +1,4 @@
-"""A slow, plain re-derivation of the wolfpack world from SPEC.md alone (the test oracle).
+"""A slow, plain re-derivation of the wolfpack world from docs/world-and-laws.md alone (the test oracle).
 
 Scope: obstacle-free arenas, `seed000` wolves, `escape` (after its first sighting) or `still`
 targets, the `count` capture rule. Every function cites the SPEC section it re-derives. Nothing

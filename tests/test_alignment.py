@@ -1,4 +1,4 @@
-"""The Rust world against an independent NumPy re-derivation of SPEC.md (tests/reference_model.py).
+"""The Rust world against an independent NumPy re-derivation of docs/world-and-laws.md (tests/reference_model.py).
 
 Random obstacle-free layouts (seeded numpy Generator) are run by the Rust core and by the
 reference model from the same initial state; the full state (x, y, θ, v, ω of every agent),

@@ -1,4 +1,4 @@
-"""Hardening (issue 16), the Python side: bounded input (file size, nesting, YAML alias bombs),
+"""Hardening, the Python side: bounded input (file size, nesting, YAML alias bombs),
 numbers read as YAML 1.2 reads them, Python's exception conventions across the API, a command
 line that never damages an earlier run and stops at once on Ctrl-C, and a replay that checks
 the file it is given."""

@@ -1,4 +1,4 @@
-"""Fuzzing every params key and layout field (issue 16): any input either is refused with a
+"""Fuzzing every params key and layout field: any input either is refused with a
 ValueError naming what is wrong, or gives a well-defined simulation — finite observations,
 rewards, states and energies, every agent strictly inside the arena.
 

@@ -2,8 +2,8 @@
 //!
 //! Python reads YAML and hands the dict over; serde rejects unknown keys and wrong types, and
 //! [`Params::validate`] checks ranges and cross-field rules. Every default is the documented
-//! scenario (SPEC.md §1–§5); `params.yaml` at the repository root spells the same values out and
-//! a test keeps the two equal. Derived quantities (the capture count when left `null`, the
+//! scenario (docs/world-and-laws.md §1–§5); `params.yaml` at the repository root spells the
+//! same values out and a test keeps the two equal. Derived quantities (the capture count when left `null`, the
 //! Δ-widening table's row) are computed, not stored.
 
 use serde::{Deserialize, Serialize};
@@ -25,7 +25,7 @@ pub struct Params {
     pub formation: FormationParams,
     pub avoidance: AvoidanceParams,
     pub escape: EscapeParams,
-    /// The learning interface (issue 3): action mode and observations.
+    /// The learning interface: action mode and observations.
     pub env: EnvParams,
     /// Rewards of the learning interface, per side.
     pub rewards: RewardParams,

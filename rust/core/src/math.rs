@@ -1,7 +1,7 @@
 //! Vector types and angle helpers: the one place that names the linear-algebra crate.
 //!
 //! nalgebra comes through parry (`parry2d-f64`), so the world and the geometry queries share
-//! one version of it. The world is f64 throughout; observations (issue 3) are f32.
+//! one version of it. The world is f64 throughout; observations are f32.
 
 pub use parry2d_f64::na;
 
