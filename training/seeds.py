@@ -29,6 +29,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
+import yaml  # noqa: E402
 
 from common import UsageError, load_model, play, prepare_out, report, seed_int, positive_int  # noqa: E402
 from evaluate import expand_models  # noqa: E402
@@ -96,7 +97,8 @@ def curves(out: Path, runs: list[Path], side: str, axis: str = "minutes", oppone
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="center right")
     against = f" against {opponent}" if opponent else ""
-    ax.set_title(f"{side}{against}: {len(series)} training seeds, {series[0][0].size} evaluations each on held-out episodes", fontsize=10)
+    algos = sorted({str((yaml.safe_load((run / "config.yaml").read_text()) or {}).get("algo", "?")).upper() for run in runs})
+    ax.set_title(f"{side} ({', '.join(algos)}){against}: {len(series)} training seeds, {series[0][0].size} evaluations each on held-out episodes", fontsize=10)
     fig.savefig(out / "curves.png", dpi=120)
     plt.close(fig)
 
