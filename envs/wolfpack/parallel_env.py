@@ -40,7 +40,8 @@ Observation Space
     **target** 10 … 10+5N−1     wolves, nearest first: in range, dx/r, dy/r, sin Δθ, cos Δθ —
                                 zero for wolves beyond r (masked)
     next K                      lidar: ray k at θ + 2πk/K, distance to the first obstacle or
-                                wall / ``env.lidar.range`` (1 = nothing within range)
+                                wall / ``env.lidar.range`` (1 = nothing within range);
+                                ``env.lidar.noise`` σ > 0 adds N(0, σ²), clipped to [0, 1]
     **wolf** next 4M (optional) ``env.last_sighting``: per target, the pack's latest sighting:
                                 sighted, dx/S, dy/S (where the target stood the last time
                                 any wolf sensed it, in this wolf's frame), age / max_steps;

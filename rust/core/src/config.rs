@@ -546,11 +546,16 @@ pub struct LidarParams {
     pub rays: usize,
     /// Metres; a ray that hits nothing reads 1 (distance / range).
     pub range: f64,
+    /// Standard deviation of the Gaussian noise added to every reading (in units of `range`),
+    /// the sum clipped to [0, 1]; 0 = exact readings. Only what learners observe is noisy: the
+    /// scripted laws sense the world exactly. The draws come from a stream of their own
+    /// ([`crate::world::World::sensing_rng`]), so noise never changes an episode's motion.
+    pub noise: f64,
 }
 
 impl Default for LidarParams {
     fn default() -> Self {
-        Self { rays: 16, range: 3.0 }
+        Self { rays: 16, range: 3.0, noise: 0.0 }
     }
 }
 

@@ -139,6 +139,7 @@ pub const LIMITS: &[Limit] = &[
     // env
     closed("env.lidar.rays", 0.0, 1024.0, "rays"),
     positive("env.lidar.range", DISTANCE, "m"),
+    closed("env.lidar.noise", 0.0, 1.0, "(standard deviation, in units of the range)"),
     // rewards
     closed("rewards.wolves.capture_bonus", -REWARD, REWARD, "per event"),
     closed("rewards.wolves.shaping", -REWARD, REWARD, "(weight)"),

@@ -26,6 +26,9 @@
 //! formulas a tenth of that. The tests check them against parry's `Ball`, `Segment` and `Aabb`
 //! casts, which stay the reference.
 
+use rand::Rng;
+use rand_distr::StandardNormal;
+
 use crate::config::Params;
 use crate::math::{cross, Vec2};
 use crate::world::{AgentState, Obstacle, World};
@@ -124,6 +127,7 @@ impl Observer {
             k += 5;
         }
         k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
+        add_lidar_noise(w, i, &mut out[k - p.env.lidar.rays..k]);
         if p.env.last_sighting {
             for sighting in &w.target_last_sighting {
                 let block = &mut out[k..k + 4];
@@ -168,6 +172,7 @@ impl Observer {
             k += 5;
         }
         k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
+        add_lidar_noise(w, w.n_wolves() + j, &mut out[k - p.env.lidar.rays..k]);
         interaction_row(w, w.n_wolves() + j, &mut out[k..]);
     }
 
@@ -176,6 +181,20 @@ impl Observer {
         self.by_distance.clear();
         self.by_distance.extend(agents.iter().enumerate().filter(|&(j, _)| Some(j) != skip).map(|(j, a)| ((a.pos - from).norm(), j)));
         self.by_distance.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    }
+}
+
+/// `env.lidar.noise`: adds N(0, noise²) to each of agent `agent`'s lidar `readings` and clips
+/// the sums to [0, 1] (a reading stays a fraction of the range). Nothing when the noise is 0.
+fn add_lidar_noise(w: &World, agent: usize, readings: &mut [f32]) {
+    let sigma = w.params.env.lidar.noise;
+    if sigma <= 0.0 || readings.is_empty() {
+        return;
+    }
+    let mut rng = w.sensing_rng(agent);
+    for r in readings {
+        let z: f64 = rng.sample(StandardNormal);
+        *r = (f64::from(*r) + sigma * z).clamp(0.0, 1.0) as f32;
     }
 }
 
@@ -467,6 +486,34 @@ mod tests {
         let mut o = Observer::default();
         o.prepare(w);
         o
+    }
+
+    #[test]
+    fn lidar_noise_is_fixed_by_step_and_agent_and_stays_a_fraction() {
+        let layout = Layout { wolves: vec![[1.0, 0.0, 0.0], [0.0, 5.0, 1.0]], targets: vec![[0.0, 0.0, 0.0]], obstacles: vec![] };
+        let mut p = Params::default();
+        p.world.wolves = 2;
+        let exact = World::from_layout(Arc::new(p.clone()), 7, &layout).unwrap();
+        p.env.lidar.noise = 0.2;
+        let noisy = World::from_layout(Arc::new(p.clone()), 7, &layout).unwrap();
+        let d = wolf_dim(&p);
+        let lidar_at = d - p.env.lidar.rays..d;
+        let observe = |w: &World, i: usize| {
+            let mut out = vec![0f32; d];
+            observer(w).wolf(w, i, &mut out);
+            out
+        };
+        let (clean, first) = (observe(&exact, 1), observe(&noisy, 1));
+        // The target's observation in between: the wolf's noise does not depend on who else was observed.
+        observer(&noisy).target(&noisy, 0, &mut vec![0f32; target_dim(&p)]);
+        assert_eq!(first, observe(&noisy, 1), "the same step and agent draw the same noise");
+        assert_eq!(clean[..lidar_at.start], first[..lidar_at.start], "only the lidar is noisy");
+        assert!(first[lidar_at.clone()].iter().all(|r| (0.0..=1.0).contains(r)));
+        let moved = clean[lidar_at.clone()].iter().zip(&first[lidar_at.clone()]).filter(|(a, b)| a != b).count();
+        assert!(moved >= p.env.lidar.rays / 2, "most readings move ({moved} of {})", p.env.lidar.rays);
+        assert_ne!(first[lidar_at.clone()], observe(&noisy, 0)[lidar_at.clone()], "each agent draws its own noise");
+        let other_seed = World::from_layout(Arc::new(p), 8, &layout).unwrap();
+        assert_ne!(first[lidar_at.clone()], observe(&other_seed, 1)[lidar_at], "each seed draws its own noise");
     }
 
     #[test]

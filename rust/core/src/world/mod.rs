@@ -86,6 +86,7 @@ impl Outcome {
 const STREAM_SPAWN: u64 = 0;
 const STREAM_MOTION: u64 = 1;
 const STREAM_POLICY: u64 = 2;
+const STREAM_SENSING: u64 = 3;
 const STREAMS_PER_EPISODE: u64 = 4;
 
 fn stream(seed: u64, episode: u64, s: u64) -> ChaCha8Rng {
@@ -143,6 +144,9 @@ pub struct World {
     fault: Option<String>,
     rng_motion: ChaCha8Rng,
     rng_policy: ChaCha8Rng,
+    /// The observation noise's stream, never advanced: read at a position fixed by (step,
+    /// agent) ([`World::sensing_rng`]).
+    rng_sensing: ChaCha8Rng,
     // Per-step scratch, kept to avoid allocation on the hot path.
     wolf_cmds: Vec<Command>,
     target_cmds: Vec<Command>,
@@ -227,6 +231,7 @@ impl World {
             fault: None,
             rng_motion: stream(seed, episode, STREAM_MOTION),
             rng_policy: stream(seed, episode, STREAM_POLICY),
+            rng_sensing: stream(seed, episode, STREAM_SENSING),
             wolf_cmds: vec![Command::default(); n],
             target_cmds: vec![Command::default(); m],
             wolf_bodies: Bodies::default(),
@@ -272,6 +277,7 @@ impl World {
             fault,
             rng_motion,
             rng_policy,
+            rng_sensing,
             wolf_cmds,
             target_cmds,
             wolf_bodies,
@@ -308,12 +314,25 @@ impl World {
         self.fault = fault;
         self.rng_motion = rng_motion;
         self.rng_policy = rng_policy;
+        self.rng_sensing = rng_sensing;
         self.wolf_cmds.clone_from(&wolf_cmds);
         self.target_cmds.clone_from(&target_cmds);
         self.wolf_bodies.adopt(wolf_bodies);
         self.target_bodies.adopt(target_bodies);
         self.scratch_row.clone_from(&scratch_row);
         self.near.adopt(near);
+    }
+
+    /// The generator of agent `agent`'s observation noise at this step (wolves 0..N, then
+    /// targets): the world's sensing stream at a position given by (t, agent) alone, so that
+    /// the noise of an observation depends on the world's seed, episode, step and agent — not
+    /// on how often, in which order or on which thread the agents are observed. Each (t, agent)
+    /// owns 2^20 words of the stream, far more than a 1,024-ray lidar draws.
+    pub(crate) fn sensing_rng(&self, agent: usize) -> ChaCha8Rng {
+        let agents = (self.wolves.len() + self.targets.len()) as u128;
+        let mut r = self.rng_sensing.clone();
+        r.set_word_pos((u128::from(self.t) * agents + agent as u128) << 20);
+        r
     }
 
     pub fn n_wolves(&self) -> usize {
