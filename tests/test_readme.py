@@ -14,7 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 # The pages README's sections moved to (README links to them); their examples are README's.
-DOCS = [ROOT / "docs" / name for name in ("scenario.md", "guide.md", "learning.md")]
+DOCS = [ROOT / "docs" / name for name in ("scenario.md", "guide.md", "learning.md", "tasks.md")]
 
 
 def python_blocks(path: Path) -> list[str]:

@@ -6,7 +6,10 @@ Public entry points (docs/interface.md in the repository has the whole interface
 - :func:`run_episodes` — run scripted episodes in parallel (the engine behind ``wolfpack hunt``).
 - :func:`parallel_env` — PettingZoo ``ParallelEnv`` (either side learning); :func:`env`, the
   same as an ``AECEnv``.
-- ``gymnasium.make("wolfpack/Escape-v0")`` — one learning target (registered on import).
+- :func:`tasks` — the benchmark's named, versioned tasks (``task=NAME`` on every env,
+  ``wolfpack hunt --task NAME``; docs/tasks.md).
+- ``gymnasium.make("wolfpack/Escape-v0")`` — one learning target (registered on import), and
+  ``wolfpack/Escape-<task>`` for every task with one target.
 - :func:`make_vec_env` — SB3 ``VecEnv`` over the native batch (needs stable-baselines3).
 - :class:`BatchEnv` — the native batch itself.
 - :class:`Opponent` — what drives the side that does not learn: a law, an SB3 model or a
@@ -24,9 +27,10 @@ from wolfpack.batch import OUTCOMES, BatchEnv
 from wolfpack.opponents import Opponent
 from wolfpack.models import load_policy
 from wolfpack.parallel_env import env, parallel_env
+from wolfpack.task import gym_id, single_target_tasks, tasks
 
 
-def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, opponent=None, **overrides):
+def make_vec_env(params=None, *, task=None, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, opponent=None, **overrides):
     """An SB3 ``VecEnv`` over the native batch: one slot per learning agent per world (see
     :mod:`wolfpack.vec_env`); ``learners="all"`` needs ``shared_space=True``. Imports
     stable-baselines3 on first use (an ImportError naming the ``[train]`` extra without it)."""
@@ -35,7 +39,7 @@ def make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=No
     require("stable_baselines3", "make_vec_env (an SB3 VecEnv)")
     from wolfpack.vec_env import make_vec_env as _make
 
-    return _make(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
+    return _make(params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
 
 
 def _vec_env_docstring() -> str:
@@ -56,6 +60,9 @@ def _register_gymnasium() -> None:
 
     if "wolfpack/Escape-v0" not in gymnasium.registry:
         gymnasium.register(id="wolfpack/Escape-v0", entry_point="wolfpack.gym_env:EscapeEnv")
+    for name in single_target_tasks():
+        if gym_id(name) not in gymnasium.registry:
+            gymnasium.register(id=gym_id(name), entry_point="wolfpack.gym_env:EscapeEnv", kwargs={"task": name})
 
 
 _register_gymnasium()
@@ -74,4 +81,5 @@ __all__ = [
     "parallel_env",
     "env",
     "make_vec_env",
+    "tasks",
 ]

@@ -18,6 +18,7 @@ import numpy as np
 from wolfpack import _core
 from wolfpack._checks import check_flag, check_index, check_int, check_seed, check_threads
 from wolfpack.config import apply_overrides, check_tree, load_params
+from wolfpack.task import task_params
 from wolfpack.opponents import Opponent, as_opponent, drivers, opponent_side
 
 LEARNERS = ("wolves", "targets", "all", "none")
@@ -76,8 +77,9 @@ def _leaf_keys(node: Mapping[str, Any], prefix: str = "") -> list[str]:
 _MISSING = object()
 
 
-def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Mapping[str, Any]) -> dict:
-    """``params`` (None: the documented scenario; a path to YAML; or a dict) with ``overrides``
+def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Mapping[str, Any], task: str | None = None) -> dict:
+    """``params`` (None: the documented scenario; a path to YAML; or a dict), or the params of
+    ``task`` (a name of :func:`wolfpack.tasks`; not with ``params``), with ``overrides``
     applied, validated. Override keys are dotted (``"world.wolves"``) or use ``__`` in place of
     the dots (``world__wolves=8`` as a keyword argument); ``max_cycles`` is PettingZoo's name
     for ``world.max_steps``. An unknown key or a bad value is a ValueError naming the key (the
@@ -85,6 +87,10 @@ def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Map
     dict or override nested too deeply or too large is a ValueError too
     (:func:`wolfpack.config.check_tree`); ``params`` of another type is a TypeError."""
     dotted = dotted_keys(overrides)
+    if task is not None:
+        if params is not None:
+            raise ValueError(f"give params or task, not both (task {task!r} is a complete params file)")
+        return task_params(task, dotted)
     if params is None or isinstance(params, (str, Path)):
         return load_params(params, dotted)
     if not isinstance(params, Mapping):
@@ -224,11 +230,22 @@ def _world_infos(code: int, caps: list, corners: list, energy: list, collisions:
     ]
 
 
+class ObservationSizeError(ValueError):
+    """A learned opponent built for another observation size than its side has here (other
+    params: agent counts, lidar rays, observation keys)."""
+
+    def __init__(self, message: str, wanted: int, here: int) -> None:
+        super().__init__(message)
+        self.wanted, self.here = wanted, here
+
+
 class BatchEnv:
     """``num_envs`` worlds in one native batch.
 
     Args:
         params: None (the documented scenario), a YAML path, or a params dict.
+        task: a task of the benchmark suite instead of ``params`` (:func:`wolfpack.tasks`,
+            docs/tasks.md); ``overrides`` change it. An unknown name is a ValueError.
         num_envs: number of worlds E; world i is seeded ``seed + i``.
         learners: ``"wolves"``, ``"targets"``, ``"all"`` or ``"none"``; the other side follows
             its scripted law (``policies.*`` in params).
@@ -264,6 +281,7 @@ class BatchEnv:
         self,
         params: str | Path | Mapping[str, Any] | None = None,
         *,
+        task: str | None = None,
         num_envs: int = 1,
         learners: str = "wolves",
         seed: int = 0,
@@ -272,14 +290,17 @@ class BatchEnv:
         opponent: Any = None,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, **overrides)
+        self._init_kwargs = dict(params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, **overrides)
         self.learners = check_learners(learners)
         num_envs = check_int(num_envs, "num_envs", 1)
         threads = check_threads(threads)
         seed = check_seed(seed, span=num_envs)
         autoreset = check_flag(autoreset, "autoreset")
         check_override_keywords(overrides)
-        self._base_params = resolve_params(params, overrides)
+        self._base_params = resolve_params(params, overrides, task)
+        #: The task these worlds play (None: ``params``); with overrides outside ``env`` and
+        #: ``rewards`` it is a modified task (:func:`wolfpack.task.outcome_changes`).
+        self.task: str | None = task
         self.opponent: Opponent | None = as_opponent(opponent) if opponent is not None else None
         core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)
         self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads)
@@ -316,7 +337,7 @@ class BatchEnv:
         side = opponent_side(opponent, self.learners)
         ours = self.wolf_obs_dim if side == "wolves" else self.target_obs_dim
         if opponent.obs_dim != ours:
-            raise ValueError(f"opponent {opponent.name!r} takes {opponent.obs_dim} observations, but the {side} here have {ours} (other params, or an older observation layout)")
+            raise ObservationSizeError(f"opponent {opponent.name!r} takes {opponent.obs_dim} observations, but the {side} here have {ours} (other params, or an older observation layout)", opponent.obs_dim, ours)
 
     def set_opponent(self, opponent: Any) -> None:
         """Swaps what drives the non-learning side from the next step on, keeping every world

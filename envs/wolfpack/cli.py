@@ -37,6 +37,7 @@ from typing import Any, Callable, Iterator, Sequence
 from wolfpack import _core, config, logs
 from wolfpack._checks import MAX_THREADS, check_seed
 from wolfpack.episodes import RunningSummary, run_episodes
+from wolfpack.task import TASK_ORDER, outcome_changes, task_params
 
 PROG = "wolfpack"
 EXIT_INPUT, EXIT_INTERNAL, EXIT_IO, EXIT_INTERRUPTED = 2, 3, 1, 130
@@ -115,6 +116,7 @@ examples:
   wolfpack hunt --episodes 20 --json
   wolfpack hunt --episodes 200 --seed 7 --out runs/hunt --plots 5
   wolfpack hunt --targets still --set world.wolves=8 --set capture.count=6
+  wolfpack hunt --task fast-target-v1 --wolves bvc --episodes 200
   wolfpack hunt --params my_scenario.yaml --layout start.json --episodes 10 --out runs/layout
 
 layout file (JSON; vertices in world coordinates):
@@ -200,14 +202,17 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help' or 'wolfpack train --help' for details.",
+        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help' or 'wolfpack benchmark --help' for details.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train,benchmark}", parser_class=_Parser)
 
     hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
                           description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    hunt.add_argument("--params", metavar="P", help="scenario YAML (default: the packaged params.yaml); missing keys take their defaults")
+    scenario = hunt.add_mutually_exclusive_group()
+    scenario.add_argument("--params", metavar="P", help="scenario YAML (default: the packaged params.yaml); missing keys take their defaults")
+    scenario.add_argument("--task", metavar="NAME", choices=TASK_ORDER,
+                          help=f"a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}; --set changes it (a modified task)")
     hunt.add_argument("--wolves", choices=("seed000", "bvc", "formation"), help="wolf law; sets policies.wolves (wins over --set)")
     hunt.add_argument("--targets", choices=("escape", "random", "still"), help="target law; sets policies.targets (wins over --set)")
     hunt.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=20, help="number of episodes (default: 20)")
@@ -260,6 +265,9 @@ def build_parser() -> argparse.ArgumentParser:
     from wolfpack.learn.cli import add_parser as add_train
 
     add_train(sub, _Parser)
+    from wolfpack.scorecard_cli import add_parser as add_benchmark
+
+    add_benchmark(sub, _Parser)
     return parser
 
 
@@ -284,7 +292,10 @@ def resolve_scenario(args: argparse.Namespace) -> tuple[dict, dict, dict | None]
     ValueError naming the problem.
     """
     overrides = _overrides(args)
-    params = config.load_params(args.params, overrides)
+    if getattr(args, "task", None) is not None:
+        params = task_params(args.task, overrides)
+    else:
+        params = config.load_params(args.params, overrides)
     if args.layout is None:
         return params, _core.validate_params(params, resolve=True), None
     layout = config.load_layout(args.layout)
@@ -625,8 +636,9 @@ def _table(summary: dict, args, resolved: dict) -> str:
     n = summary["episodes"]
     pol = resolved["policies"]
     w = resolved["world"]
+    task = f"task {args.task}{' (modified)' if outcome_changes(_overrides(args)) else ''}: " if getattr(args, "task", None) else ""
     lines = [
-        f"{n} episodes, seeds {args.seed}..{args.seed + n - 1}: {w['wolves']} {pol['wolves']} wolves vs "
+        f"{task}{n} episodes, seeds {args.seed}..{args.seed + n - 1}: {w['wolves']} {pol['wolves']} wolves vs "
         f"{w['targets']} {pol['targets']} target(s), at most {w['max_steps']} steps",
     ]
     keys = ("captured", "cornered", "collision", "timeout") if resolved["capture"]["cornered"] else ("captured", "collision", "timeout")
@@ -663,7 +675,7 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
         details: list[dict] = []
         tally, seconds = simulate(args, params, layout, writer.episode, details, recorded=writer.recorded)
         summary = tally.summary(seconds)
-        full = {**summary, "params": resolved, "seed": args.seed, "layout": layout,
+        full = {**summary, "task": args.task, "params": resolved, "seed": args.seed, "layout": layout,
                 "command": [PROG, *argv], "episodes_detail": details}
         writer.plot_summary(full)
         with _sigint_held():  # summary.json and the swap into DIR: all or nothing

@@ -1,4 +1,5 @@
-"""``wolfpack/Escape-v0``: one learning target against the scripted wolves (Gymnasium).
+"""``wolfpack/Escape-v0`` and ``wolfpack/Escape-<task>``: one learning target against the
+scripted wolves (Gymnasium).
 
 The single-agent view of :mod:`wolfpack.parallel_env` with ``learners="targets"``: the same
 target observation, action space, rewards, termination and infos (see that module's
@@ -8,8 +9,13 @@ law's name, a saved wolf model or a callable: :mod:`wolfpack.opponents`). Needs
 
     import gymnasium, wolfpack
     env = gymnasium.make("wolfpack/Escape-v0")            # or ..., params="my.yaml", world__wolves=4
+    env = gymnasium.make("wolfpack/Escape-fast-target-v1")  # a task of the benchmark suite
 
-Arguments: ``params`` (None, YAML path or dict), ``render_mode`` (None, ``"rgb_array"`` or
+``wolfpack/Escape-v0`` plays ``params`` (default: the documented scenario, whatever the installed
+version's defaults are); ``wolfpack/Escape-<task>`` plays a frozen task of the benchmark suite
+(docs/tasks.md), one id for each task with one target (``task=`` of this class).
+
+Arguments: ``params`` (None, YAML path or dict) or ``task`` (a task's name), ``render_mode`` (None, ``"rgb_array"`` or
 ``"human"``, as the ParallelEnv's), ``render_options`` (dict: width, height, trail, sensing,
 links), ``seed`` (the base
 seed when ``reset`` gets none), ``**overrides`` (``world__wolves=4`` or
@@ -17,7 +23,7 @@ seed when ``reset`` gets none), ``**overrides`` (``world__wolves=4`` or
 state. ``env.unwrapped.world_state()`` / ``env.unwrapped.expert_actions()`` as in the
 ParallelEnv (the expert is the scripted escape law).
 
-Version History: v0, first release.
+Version History: Escape-v0, first release; the task ids carry their task's version.
 """
 
 from __future__ import annotations
@@ -39,14 +45,14 @@ class EscapeEnv(gymnasium.Env):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
 
-    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, opponent: Any = None, **overrides: Any) -> None:
-        self._init_kwargs = dict(params=params, render_mode=render_mode, render_options=render_options, seed=seed, opponent=opponent, **overrides)
+    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, opponent: Any = None, **overrides: Any) -> None:
+        self._init_kwargs = dict(params=params, task=task, render_mode=render_mode, render_options=render_options, seed=seed, opponent=opponent, **overrides)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
         frame_options = FrameOptions(**check_render_options(render_options))
-        self._batch = BatchEnv(params, num_envs=1, learners="targets", seed=seed, autoreset=False, threads=1, opponent=opponent, **overrides)
+        self._batch = BatchEnv(params, task=task, num_envs=1, learners="targets", seed=seed, autoreset=False, threads=1, opponent=opponent, **overrides)
         self._view = EnvRendering(self.render_mode, self._batch.params, frame_options, self.metadata["render_fps"])
         if self._batch.n_targets != 1:
-            raise ValueError(f"Escape-v0 has one learning target; world.targets is {self._batch.n_targets} (use wolfpack.parallel_env for several)")
+            raise ValueError(f"this view has one learning target; world.targets is {self._batch.n_targets} (use wolfpack.parallel_env for several)")
         self.observation_space = observation_box(self._batch.target_obs_dim)
         self.action_space = action_box()
         self._seed = seed

@@ -84,12 +84,14 @@ Termination / Truncation
     uncaptured target, −1 when none is left; target: to the nearest wolf).
 
 Arguments
-    ``parallel_env(params=None, *, learners="wolves", render_mode=None, render_options=None, seed=0, shared_space=False, opponent=None, **overrides)``:
+    ``parallel_env(params=None, *, task=None, learners="wolves", render_mode=None, render_options=None, seed=0, shared_space=False, opponent=None, **overrides)``:
     ``opponent`` drives the side that does not learn: a scripted law's name, a saved SB3 model
     (path or object), any batched callable ``obs [n, D] -> actions [n, 2]``, or a
     ``wolfpack.Opponent`` (:mod:`wolfpack.opponents`); ``env.unwrapped.set_opponent(...)``
     swaps it between episodes or mid-episode.
-    ``params`` is None (the documented scenario), a YAML path or a dict; overrides are dotted
+    ``params`` is None (the documented scenario), a YAML path or a dict; ``task`` names a task
+    of the benchmark suite instead (``wolfpack.tasks()``, docs/tasks.md; a ValueError lists the
+    known ones); overrides, on top of either, are dotted
     keys (``**{"world.wolves": 8}``) or ``world__wolves=8``, and ``max_cycles`` is PettingZoo's
     name for ``world.max_steps``; a keyword that names no params key is a TypeError, a bad value
     a ValueError naming the key; a seed must be an integer in [0, 2**64) (a ValueError
@@ -168,6 +170,7 @@ class WolfpackParallelEnv(ParallelEnv):
         self,
         params: str | Path | Mapping[str, Any] | None = None,
         *,
+        task: str | None = None,
         learners: str = "wolves",
         render_mode: str | None = None,
         render_options: Mapping[str, Any] | None = None,
@@ -176,11 +179,11 @@ class WolfpackParallelEnv(ParallelEnv):
         opponent: Any = None,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
+        self._init_kwargs = dict(params=params, task=task, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
         self.shared_space = check_shared_space(shared_space, learners)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
         frame_options = FrameOptions(**check_render_options(render_options))
-        self._batch = BatchEnv(params, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1, opponent=opponent, **overrides)
+        self._batch = BatchEnv(params, task=task, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1, opponent=opponent, **overrides)
         self._view = EnvRendering(self.render_mode, self._batch.params, frame_options, self.metadata["render_fps"])
         self.learners = learners
         n, m = self._batch.n_wolves, self._batch.n_targets
@@ -347,9 +350,9 @@ class WolfpackParallelEnv(ParallelEnv):
 
 
 
-def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, opponent: Any = None, **overrides: Any) -> WolfpackParallelEnv:
+def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, opponent: Any = None, **overrides: Any) -> WolfpackParallelEnv:
     """A PettingZoo ``ParallelEnv`` of one world (see this module's docstring)."""
-    return WolfpackParallelEnv(params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
+    return WolfpackParallelEnv(params, task=task, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
 
 
 
@@ -358,13 +361,13 @@ def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, learne
 parallel_env.__doc__ = f"{parallel_env.__doc__}\n\n{__doc__}"
 
 
-def env(params: str | Path | Mapping[str, Any] | None = None, *, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, opponent: Any = None, **overrides: Any):
+def env(params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, opponent: Any = None, **overrides: Any):
     """The same world as a PettingZoo ``AECEnv`` (agents act in turn; the world steps once all
     active agents have acted): PettingZoo's ``parallel_to_aec`` over :func:`parallel_env`, with
     the same arguments, spaces, ``state()`` and ``state_space``."""
     from pettingzoo.utils.conversions import parallel_to_aec
 
-    par = parallel_env(params, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
+    par = parallel_env(params, task=task, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
     aec = parallel_to_aec(par)
     aec.state_space = par.state_space  # the converter forwards state() but not its space
     return aec

@@ -1,6 +1,6 @@
 """A Stable-Baselines3 ``VecEnv`` over the native batch: one slot per learning agent per world.
 
-``make_vec_env(params=None, *, num_envs, learners="wolves", seed=0, threads=None,
+``make_vec_env(params=None, *, task=None, num_envs, learners="wolves", seed=0, threads=None,
 shared_space=False, opponent=None)`` builds ``num_envs`` worlds; with ``learners="wolves"`` there are
 ``num_envs × N`` slots (slot ``e·N + i`` is wolf i of world e), with ``"targets"`` ``num_envs ×
 M``, and with ``learners="all", shared_space=True`` ``num_envs × (N+M)`` (slot ``e·(N+M) + k``:
@@ -98,6 +98,7 @@ class WolfpackVecEnv(VecEnv):
         self,
         params: str | Path | Mapping[str, Any] | None = None,
         *,
+        task: str | None = None,
         num_envs: int,
         learners: str = "wolves",
         seed: int = 0,
@@ -106,7 +107,7 @@ class WolfpackVecEnv(VecEnv):
         opponent: Any = None,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
+        self._init_kwargs = dict(params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
         if learners not in ("wolves", "targets", "all"):
             raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'all' (with shared_space=True), got {learners!r}")
         if learners == "all" and shared_space is not True:
@@ -115,7 +116,7 @@ class WolfpackVecEnv(VecEnv):
                 "sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
             )
         check_shared_space(shared_space, learners)
-        self.batch = BatchEnv(params, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, opponent=opponent, **overrides)
+        self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, opponent=opponent, **overrides)
         self.learners = learners
         self.worlds = self.batch.num_envs
         n, m = self.batch.n_wolves, self.batch.n_targets
@@ -305,6 +306,7 @@ class WolfpackVecEnv(VecEnv):
 def make_vec_env(
     params: str | Path | Mapping[str, Any] | None = None,
     *,
+    task: str | None = None,
     num_envs: int,
     learners: str = "wolves",
     seed: int = 0,
@@ -314,4 +316,4 @@ def make_vec_env(
     **overrides: Any,
 ) -> WolfpackVecEnv:
     """An SB3 ``VecEnv`` of ``num_envs`` worlds (see this module's docstring)."""
-    return WolfpackVecEnv(params, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
+    return WolfpackVecEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)

@@ -9,6 +9,7 @@ import shlex
 from pathlib import Path
 from typing import Any, Sequence
 
+from wolfpack.task import TASK_ORDER
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -79,7 +80,10 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--timesteps", metavar="N", type=_int_at_least(1), default=None, help="stop after this many agent-steps in all")
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds (default 0)")
     p.add_argument("--opponent", metavar="LAW_OR_MODEL", action="append", default=None, help="what drives the other side: a law (seed000, bvc, formation / escape, random, still) or a saved model (default: its law in params); repeated: a pool, one drawn per rollout, the first evaluated")
-    p.add_argument("--params", metavar="P", default=None, help="scenario YAML (default: the packaged params.yaml)")
+    scenario = p.add_mutually_exclusive_group()
+    scenario.add_argument("--params", metavar="P", default=None, help="scenario YAML (default: the packaged params.yaml)")
+    scenario.add_argument("--task", metavar="NAME", default=None, choices=TASK_ORDER,
+                          help=f"train on a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="params override, e.g. --set world.wolves=8 (repeatable)")
     p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
     p.add_argument("--device", choices=DEVICES, default="auto", help="where the networks run: auto (CUDA when present), cpu or cuda; the worlds always step on the CPU")
@@ -101,7 +105,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     hp = dict(config.parse_override(text) for text in args.hp)
     summary = run_training(
         learners=args.side, algo=args.algo, out=args.out, time_limit_min=args.time_limit, timesteps=args.timesteps, seed=args.seed,
-        params=args.params, overrides=overrides, hp=hp, opponent=args.opponent, device=args.device, threads=args.threads,
+        params=args.params, task=args.task, overrides=overrides, hp=hp, opponent=args.opponent, device=args.device, threads=args.threads,
         torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, evaluations=args.evaluations, imitate_min=args.imitate, resume=args.resume, progress=not args.no_progress,
         command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
     )
@@ -163,7 +167,7 @@ def _short(v: Any) -> str:
     return text if len(text) <= 40 else "different values"
 
 
-def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, opponent, device: str,
+def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, task: str | None = None, opponent, device: str,
                  threads, torch_threads, eval_episodes: int, resume: bool, evaluations: int = 10, imitate_min: float | None = None, progress: bool, command: str) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
     if learners not in LEARNERS:
@@ -201,7 +205,7 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         # A law opponent is the params' law of that side: the saved models then say in their
         # params what they were trained against.
         overrides[f"policies.{other}"] = opponent
-    resolved = resolve_params(params, overrides)
+    resolved = resolve_params(params, overrides, task)
     cores_env, cores_torch = default_threads()
     spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=opponent, opponent_pool=tuple(pool),
                      timesteps=timesteps, time_limit_min=time_limit_min, threads=threads or cores_env, torch_threads=torch_threads or cores_torch,
@@ -219,7 +223,7 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         from wolfpack.opponents import CONFIG_FILE
 
         out.mkdir(parents=True, exist_ok=True)
-        config = {**spec.identity(), "trainer": "wolfpack train", "timesteps": timesteps, "time_limit_min": time_limit_min, "threads": spec.threads,
+        config = {**spec.identity(), "task": task, "trainer": "wolfpack train", "timesteps": timesteps, "time_limit_min": time_limit_min, "threads": spec.threads,
                   "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "evaluations": evaluations, "imitate_min": imitate_min, "command": command, "versions": versions()}
         (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
     return trainer.run()

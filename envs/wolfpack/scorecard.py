@@ -1,0 +1,231 @@
+"""The scorecard of ``wolfpack benchmark``: one policy on every task of the suite, on held-out
+episodes, ranked against the committed baselines (docs/tasks.md, "Scorecards").
+
+A policy plays one side — wolves or targets — against the other side's scripted law of each
+task (``policies.*`` in the task's params: ``escape`` targets, ``seed000`` wolves). Its score on
+a task is the rate that side is after: **captured** for wolves, **survived** for targets, over
+episodes ``seed .. seed + episodes − 1`` (default: the trainer's held-out episodes, 500000 + k,
+which no training run meets), with a 95 % Wilson interval. Deterministic policies (a model's
+Gaussian mean) meet identical episodes, so two scorecards with the same episodes compare
+policies, not luck.
+
+A policy built for another observation size than a task's (a 5-wolf model on ``small-pack-v1``,
+one target's on ``two-targets-v1``) cannot play that task: the task is marked skipped with the
+one-line reason, and a policy that fits no task is an error.
+
+The baselines (``baselines.json`` beside this module; ``results/benchmark/baselines.json`` in the
+repository) hold, per side, the analytic laws' scores on the same episodes, written by
+``python benchmarks/benchmark_baselines.py``. A scorecard's rank on a task is 1 + the number of
+baselines of its side that scored higher.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from wolfpack.batch import ObservationSizeError
+from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
+from wolfpack.opponents import SIDES, Opponent
+from wolfpack.task import TASK_ORDER, check_task, task_params
+
+#: The committed baselines.
+BASELINES_FILE = Path(__file__).with_name("baselines.json")
+#: Episodes per task unless told otherwise.
+DEFAULT_EPISODES = 200
+#: What each side is scored on: the report's key and how tables name it.
+SKILL = {"wolves": ("capture_rate", "captured"), "targets": ("survival_rate", "survived")}
+OTHER = {"wolves": "targets", "targets": "wolves"}
+
+
+def as_policy(policy: Any, side: str) -> Opponent:
+    """``policy`` (a law's name, a saved model's path, an SB3 model or a callable
+    ``obs [n, D] -> actions [n, 2]``) as the deterministic driver of ``side``; a ValueError
+    naming the problem (a law of the other side, a model of the other side, no such file)."""
+    if side not in SIDES:
+        raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
+    if isinstance(policy, Opponent):
+        if policy.side not in (None, side):
+            raise ValueError(f"{policy.name!r} drives the {policy.side}, not the {side}")
+        return policy
+    return Opponent(policy, side=side, deterministic=True)
+
+
+def score_task(policy: Opponent, side: str, task: str, *, episodes: int = DEFAULT_EPISODES, seed: int = HELD_OUT_SEED,
+               threads: int | None = None, progress: Callable[[int], None] | None = None) -> dict:
+    """``policy`` driving ``side`` on ``task``: the evaluation report (:func:`wolfpack.evaluation.report`)
+    with ``score`` and ``score_ci95`` added, or ``{"skipped": reason}`` when its observation size
+    does not fit the task."""
+    params = task_params(check_task(task))
+    other_law = params["policies"][OTHER[side]]
+    try:
+        results = rollout(params, episodes=episodes, seed=seed, threads=threads, opponent=policy, progress=progress)
+    except ObservationSizeError as error:
+        if progress is not None:
+            progress(episodes)
+        return {"skipped": f"it takes {error.wanted} observations, the {side} of {task} have {error.here}"}
+    names = {side: policy.name, OTHER[side]: other_law}
+    row = report(results, names["wolves"], names["targets"])
+    row.pop("capture_steps")
+    key = SKILL[side][0]
+    hits = round(row[key] * row["episodes"])
+    row["score"] = row[key]
+    row["score_ci95"] = list(wilson_interval(hits, row["episodes"]))
+    return row
+
+
+def load_baselines(path: str | Path | None = None) -> dict:
+    """The committed baselines: ``{"episodes", "first_seed", "wolves": {name: entry},
+    "targets": {name: entry}}``, each entry ``{"kind", "tasks": {task: {"score", "score_ci95",
+    ...}}}``. An empty set when the file is absent."""
+    path = Path(path) if path is not None else BASELINES_FILE
+    if not path.exists():
+        return {"episodes": None, "first_seed": None, "wolves": {}, "targets": {}}
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def rank(score: float, others: Sequence[float]) -> int:
+    """1 + how many of ``others`` scored strictly higher."""
+    return 1 + sum(1 for s in others if s > score)
+
+
+def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, episodes: int = DEFAULT_EPISODES, seed: int = HELD_OUT_SEED,
+              threads: int | None = None, baselines: dict | None = None, progress: Callable[[int], None] | None = None) -> dict:
+    """Plays ``policy`` as ``side`` on ``tasks`` (default: every task) and ranks it against
+    ``baselines`` (default: the committed ones) where they were measured on the same episodes.
+    Returns the scorecard (what ``scorecard.json`` holds)."""
+    driver = as_policy(policy, side)
+    tasks = list(TASK_ORDER if tasks is None else tasks)
+    for task in tasks:
+        check_task(task)
+    if not tasks:
+        raise ValueError("no tasks to play")
+    baselines = load_baselines() if baselines is None else baselines
+    comparable = baselines.get("episodes") == episodes and baselines.get("first_seed") == seed
+    rows: dict[str, dict] = {}
+    for task in tasks:
+        row = score_task(driver, side, task, episodes=episodes, seed=seed, threads=threads, progress=progress)
+        if "score" in row:
+            theirs = {name: entry["tasks"][task]["score"] for name, entry in baselines.get(side, {}).items()
+                      if comparable and task in entry.get("tasks", {}) and "score" in entry["tasks"][task]}
+            theirs.pop(driver.name, None)  # a baseline is not ranked against itself
+            row["baselines"] = theirs
+            row["rank"] = rank(row["score"], list(theirs.values())) if theirs else None
+            row["ranked_among"] = len(theirs) + 1 if theirs else None
+        rows[task] = row
+    played = [t for t in tasks if "score" in rows[t]]
+    if not played:
+        reasons = {rows[t]["skipped"] for t in tasks}
+        raise ValueError(f"{driver.name!r} fits none of the tasks: {'; '.join(sorted(reasons))}")
+    return {
+        "policy": driver.name,
+        "kind": driver.kind,
+        "side": side,
+        "skill": SKILL[side][0],
+        "episodes": episodes,
+        "first_seed": seed,
+        "deterministic": True,
+        "ranked_against": "committed baselines" if comparable else None,
+        "tasks": rows,
+        "tasks_played": played,
+        "mean_score": sum(rows[t]["score"] for t in played) / len(played),
+        "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        "versions": _versions(),
+    }
+
+
+def _versions() -> dict:
+    import platform
+    import sys
+    from importlib import metadata
+
+    import numpy
+
+    out = {"wolfpack": metadata.version("wolfpack"), "numpy": numpy.__version__, "python": sys.version.split()[0], "machine": platform.machine()}
+    try:
+        out["torch"] = metadata.version("torch")
+    except metadata.PackageNotFoundError:
+        pass
+    return out
+
+
+def markdown(card: dict) -> str:
+    """The scorecard as a Markdown table, one row per task."""
+    side, (_, verb) = card["side"], SKILL[card["side"]]
+    other = OTHER[side]
+    lines = [
+        f"# Scorecard: {card['policy']} ({side})",
+        "",
+        f"{card['episodes']} deterministic episodes per task (seeds {card['first_seed']}..{card['first_seed'] + card['episodes'] - 1}), "
+        f"against each task's scripted {other}; score = {verb}, with its 95 % Wilson interval. "
+        + ("Rank among the committed baselines of the same episodes." if card["ranked_against"] else "No committed baselines for these episodes: no ranks."),
+        "",
+        f"| task | {verb} (95 % interval) | {side[:-1]} collisions | timeouts | rank | best baseline |",
+        "|---|---|---:|---:|---:|---|",
+    ]
+    for task, row in card["tasks"].items():
+        if "skipped" in row:
+            lines.append(f"| `{task}` | skipped: {row['skipped']} | | | | |")
+            continue
+        lo, hi = row["score_ci95"]
+        best = max(row["baselines"].items(), key=lambda kv: kv[1]) if row.get("baselines") else None
+        rank_text = f"{row['rank']} of {row['ranked_among']}" if row.get("rank") else "—"
+        best_text = f"{best[0]} {100 * best[1]:.1f} %" if best else "—"
+        collisions = row["collision_rate"] if side == "wolves" else row["target_collision_rate"]
+        lines.append(f"| `{task}` | **{100 * row['score']:.1f} %** ({100 * lo:.1f}–{100 * hi:.1f}) | {100 * collisions:.1f} % | "
+                     f"{100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
+    lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
+    return "\n".join(lines)
+
+
+def figure(card: dict, path: str | Path) -> None:
+    """The scorecard as a dot plot: per task, the policy's score with its interval against the
+    baselines' scores."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = list(card["tasks"])
+    fig, ax = plt.subplots(figsize=(7.5, 0.55 * len(tasks) + 1.6))
+    markers = "sD^vP*X"
+    names = sorted({n for row in card["tasks"].values() for n in row.get("baselines", {})})
+    for k, name in enumerate(names):
+        ys = [i for i, t in enumerate(tasks) if name in card["tasks"][t].get("baselines", {})]
+        xs = [100 * card["tasks"][tasks[i]]["baselines"][name] for i in ys]
+        ax.scatter(xs, [y + 0.18 for y in ys], marker=markers[k % len(markers)], s=28, color="0.55", edgecolor="0.25", linewidth=0.5,
+                   label=f"{name} (baseline)", zorder=2)
+    played = [i for i, t in enumerate(tasks) if "score" in card["tasks"][t]]
+    xs = [100 * card["tasks"][tasks[i]]["score"] for i in played]
+    lo = [x - 100 * card["tasks"][tasks[i]]["score_ci95"][0] for x, i in zip(xs, played)]
+    hi = [100 * card["tasks"][tasks[i]]["score_ci95"][1] - x for x, i in zip(xs, played)]
+    ax.errorbar(xs, [y - 0.1 for y in played], xerr=[lo, hi], fmt="o", color="tab:blue", ecolor="tab:blue", capsize=3, markersize=6,
+                label=f"{card['policy']} (95 % interval)", zorder=3)
+    for i, t in enumerate(tasks):
+        if "skipped" in card["tasks"][t]:
+            ax.text(1, i, "skipped: other observation size", va="center", fontsize=8, color="0.4")
+    ax.set_yticks(range(len(tasks)), tasks)
+    ax.invert_yaxis()
+    ax.set_xlim(-1.5, 101.5)
+    ax.set_xlabel(f"{SKILL[card['side']][1]} (% of {card['episodes']} held-out episodes)")
+    ax.grid(axis="x", color="0.9")
+    ax.set_axisbelow(True)
+    fig.suptitle(f"{card['policy']} as the {card['side']}, on every task", fontsize=11)
+    ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, fontsize=8, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write(card: dict, out: str | Path) -> list[Path]:
+    """``scorecard.json``, ``scorecard.md`` and ``scorecard.png`` into ``out``; the JSON last,
+    so that a folder without it is visibly unfinished."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "scorecard.json", out / "scorecard.md", out / "scorecard.png"]
+    figure(card, paths[2])
+    paths[1].write_text(markdown(card), encoding="utf-8")
+    paths[0].write_text(json.dumps(card, indent=1) + "\n", encoding="utf-8")
+    return paths

@@ -1,0 +1,81 @@
+"""``wolfpack benchmark``: a policy's scorecard over every task (registered by :mod:`wolfpack.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+from pathlib import Path
+from typing import Sequence
+
+from wolfpack.task import TASK_ORDER
+
+BENCHMARK_DESCRIPTION = """\
+Score one policy on every task of the benchmark suite (docs/tasks.md) and rank it against the
+committed baselines (the analytic laws, on the same episodes).
+
+--wolves POLICY plays the wolves against each task's scripted targets (score: captured);
+--targets POLICY plays the targets against each task's scripted wolves (score: survived).
+POLICY is a law's name (seed000, bvc, formation / escape, random, still) or a saved model (a
+'wolfpack train' run or model folder, or an SB3 model .zip), run deterministically. Each task
+plays the same held-out episodes (seeds 500000 + k, never met in training), reported with 95 %
+Wilson intervals. A model built for another observation size than a task's (another agent
+count, another observation layout) skips that task, saying why; one that fits no task is an
+error. From Python, wolfpack.scorecard.scorecard() also takes a callable obs [n, D] -> actions [n, 2].
+
+Without --out the scorecard is printed as a Markdown table; with --out DIR (a new or empty
+folder) DIR gets scorecard.json (every task's report, the ranks and the baselines compared
+with), scorecard.md and scorecard.png."""
+
+BENCHMARK_EPILOG = """\
+examples:
+  wolfpack benchmark --wolves bvc
+  wolfpack benchmark --wolves runs/wolves --out runs/wolves/scorecard
+  wolfpack benchmark --targets results/models/escape_ppo --tasks hunt-v1 fast-target-v1 --episodes 100"""
+
+
+def add_parser(sub, parser_class) -> argparse.ArgumentParser:
+    """Registers ``benchmark`` on the ``wolfpack`` command's subparsers."""
+    from wolfpack.cli import MAX_THREADS, _folder, _int_at_least
+
+    p = sub.add_parser("benchmark", help="score a policy on every task of the benchmark suite against the baselines",
+                       description=BENCHMARK_DESCRIPTION, epilog=BENCHMARK_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    who = p.add_mutually_exclusive_group(required=True)
+    who.add_argument("--wolves", metavar="POLICY", help="the policy plays the wolves: a wolf law or a saved wolf model")
+    who.add_argument("--targets", metavar="POLICY", help="the policy plays the targets: a target law or a saved target model")
+    p.add_argument("--tasks", metavar="NAME", nargs="+", choices=TASK_ORDER, default=None, help="only these tasks (default: every task)")
+    p.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=200, help="episodes per task (default: 200, the baselines' count: ranks need it)")
+    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=None, help="first episode seed (default: 500000, the held-out episodes: ranks need it)")
+    p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
+    p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty)")
+    p.add_argument("--json", action="store_true", help="print the scorecard as one JSON object instead of the table")
+    p.set_defaults(func=cmd_benchmark)
+    return p
+
+
+def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
+    from tqdm import tqdm
+
+    from wolfpack import scorecard
+    from wolfpack.evaluation import HELD_OUT_SEED
+
+    side = "wolves" if args.wolves is not None else "targets"
+    policy = args.wolves if side == "wolves" else args.targets
+    seed = HELD_OUT_SEED if args.seed is None else args.seed
+    tasks = list(args.tasks) if args.tasks else list(TASK_ORDER)
+    out = Path(args.out) if args.out is not None else None
+    if out is not None and out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ValueError(f"--out {out}: not a new or empty folder")
+    driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
+    with tqdm(total=args.episodes * len(tasks), unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
+        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update)
+    card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
+    if out is not None:
+        paths = scorecard.write(card, out)
+    if args.json:
+        print(json.dumps(card))
+    else:
+        print(scorecard.markdown(card))
+        if out is not None:
+            print(f"wrote {', '.join(str(p) for p in paths)}")

@@ -1,0 +1,151 @@
+"""The benchmark's task suite (docs/tasks.md): frozen params files, ``task=`` on every
+interface, the Gymnasium ids, and each task's scripted outcomes pinned."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import pickle
+import subprocess
+import sys
+from collections import Counter
+
+import gymnasium
+import pytest
+import yaml
+
+import wolfpack
+from wolfpack import _core
+from wolfpack.task import TASK_ORDER, TASKS_DIR, gym_id, outcome_changes, single_target_tasks, task_changes, task_params
+
+#: seed000 vs escape (each task's own laws), episodes 0-199: (captured, collision, timeout,
+#: total steps). A task's version must change whenever anything changes these: a failure here
+#: means either a bug or a new task version (docs/tasks.md, "Versions").
+PINNED = {
+    "hunt-v1": (196, 0, 4, 33852),
+    "open-v1": (200, 0, 0, 30501),
+    "cluttered-v1": (189, 1, 10, 37513),
+    "fast-target-v1": (181, 0, 19, 41274),
+    "small-pack-v1": (196, 0, 4, 33088),
+    "two-targets-v1": (31, 0, 169, 57932),
+    "short-sight-v1": (194, 0, 6, 36514),
+}
+
+#: A digest of each task file's params as written: a released task's file is never edited (a
+#: change to what a learner observes or is paid changes learned outcomes too, even where the
+#: scripted ones above stay).
+FROZEN = {
+    "hunt-v1": "cc7d17ef7e73d56e",
+    "open-v1": "9515990832bd2cc9",
+    "cluttered-v1": "d41876bb1d490b68",
+    "fast-target-v1": "cf9c00bdc0a21b4b",
+    "small-pack-v1": "bea6978d65b09ff4",
+    "two-targets-v1": "f3818416ffdee225",
+    "short-sight-v1": "c64b062063bccd9a",
+}
+
+
+@pytest.mark.parametrize("name", TASK_ORDER)
+def test_each_task_file_is_as_released(name):
+    written = yaml.safe_load((TASKS_DIR / f"{name}.yaml").read_text())
+    assert written["name"] == name
+    assert hashlib.sha256(json.dumps(written["params"], sort_keys=True).encode()).hexdigest()[:16] == FROZEN[name]
+
+
+@pytest.mark.parametrize("name", TASK_ORDER)
+def test_each_task_plays_its_pinned_scripted_outcomes(name):
+    results = wolfpack.run_episodes(task_params(name), 200, 0)
+    counts = Counter(r["outcome"] for r in results)
+    assert (counts["captured"], counts["collision"], counts["timeout"], sum(r["steps"] for r in results)) == PINNED[name]
+
+
+def test_the_suite_lists_every_task_with_a_description_and_the_documented_scenario_first():
+    listed = wolfpack.tasks()
+    assert list(listed) == list(PINNED) == list(TASK_ORDER)
+    assert all(isinstance(d, str) and 20 < len(d) < 200 for d in listed.values())
+    assert len(TASK_ORDER) >= 7
+
+
+def test_hunt_v1_is_the_documented_scenario():
+    # When the documented scenario's defaults change, hunt-v1 stays as it was: this fails, and
+    # the new defaults become a new version (hunt-v2) beside it.
+    assert task_params("hunt-v1") == _core.validate_params(None)
+    assert task_changes("hunt-v1") == {}
+
+
+def test_each_task_changes_what_its_description_says():
+    changes = {name: task_changes(name) for name in TASK_ORDER}
+    assert all(v == 0 for k, v in changes["open-v1"].items() if k.endswith(("circles", "polygons")))
+    clutter = task_params("cluttered-v1")["obstacles"]
+    assert sum(clutter[k] for k in ("static_circles", "moving_circles", "static_polygons", "moving_polygons")) >= 30
+    assert changes["fast-target-v1"] == {"agents.target.v_max": 2.0}
+    assert changes["small-pack-v1"] == {"world.wolves": 3}
+    assert changes["two-targets-v1"] == {"world.targets": 2}
+    sight = task_params("short-sight-v1")
+    assert sight["agents"]["wolf"]["sense_radius"] == sight["agents"]["target"]["sense_radius"] == 1.5
+    assert sight["env"]["lidar"]["noise"] > 0
+    # Every task differs from the others somewhere.
+    assert len({json.dumps(task_params(n), sort_keys=True) for n in TASK_ORDER}) == len(TASK_ORDER)
+
+
+def test_task_params_are_copies_and_take_overrides():
+    first = task_params("open-v1")
+    first["world"]["wolves"] = 9
+    assert task_params("open-v1")["world"]["wolves"] == 5
+    assert task_params("open-v1", {"world.wolves": 4})["world"]["wolves"] == 4
+
+
+def test_outcome_changes_names_the_overrides_outside_what_a_learner_observes_and_is_paid():
+    assert outcome_changes({"env.lidar.rays": 8, "rewards.wolves.shaping": 0.0}) == []
+    assert outcome_changes({"world.wolves": 4, "env.last_sighting": True}) == ["world.wolves"]
+
+
+def test_every_interface_plays_the_task():
+    batch = wolfpack.BatchEnv(task="small-pack-v1", num_envs=2)
+    assert batch.task == "small-pack-v1" and batch.n_wolves == 3
+    assert pickle.loads(pickle.dumps(batch)).params == batch.params
+    assert wolfpack.parallel_env(task="small-pack-v1").possible_agents == ["wolf_0", "wolf_1", "wolf_2"]
+    assert wolfpack.env(task="two-targets-v1", learners="targets").possible_agents == ["target_0", "target_1"]
+    venv = wolfpack.make_vec_env(task="fast-target-v1", num_envs=2, learners="targets")
+    assert venv.batch.params["agents"]["target"]["v_max"] == 2.0
+    # Overrides apply on top of the task.
+    assert wolfpack.BatchEnv(task="open-v1", world__wolves=4).n_wolves == 4
+
+
+def test_the_gymnasium_ids_are_the_single_target_tasks():
+    assert "two-targets-v1" not in single_target_tasks()
+    for name in single_target_tasks():
+        assert gym_id(name) in gymnasium.registry
+    env = gymnasium.make("wolfpack/Escape-short-sight-v1")
+    env.reset(seed=1)
+    assert env.unwrapped.params == _core.validate_params(task_params("short-sight-v1"), resolve=True)
+    assert "wolfpack/Escape-two-targets-v1" not in gymnasium.registry
+
+
+def test_a_bad_task_is_a_clear_error():
+    with pytest.raises(ValueError, match="unknown task 'hunt-v9': one of hunt-v1, open-v1"):
+        wolfpack.BatchEnv(task="hunt-v9")
+    with pytest.raises(ValueError, match="unknown task"):
+        wolfpack.parallel_env(task="")
+    with pytest.raises(TypeError, match="task must be a task's name"):
+        wolfpack.BatchEnv(task=1)
+    with pytest.raises(ValueError, match="give params or task, not both"):
+        wolfpack.BatchEnv({"world": {"wolves": 3}}, task="open-v1")
+
+
+def test_hunt_takes_a_task_and_says_so():
+    run = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--task", "fast-target-v1", "--episodes", "3"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith("task fast-target-v1: 3 episodes")
+    modified = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--task", "open-v1", "--set", "world.wolves=4", "--episodes", "2"], capture_output=True, text=True)
+    assert modified.stdout.startswith("task open-v1 (modified): 2 episodes, seeds 0..1: 4 seed000")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--task", "nope"], "invalid choice: 'nope'"),
+    (["--task", "open-v1", "--params", "params.yaml"], "not allowed with argument"),
+])
+def test_hunt_refuses_a_bad_task_in_one_line(argv, message):
+    run = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", *argv], capture_output=True, text=True)
+    assert run.returncode == 2
+    assert message in run.stderr and len(run.stderr.strip().splitlines()) == 1
