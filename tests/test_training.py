@@ -295,3 +295,16 @@ def test_evaluations_and_checkpoints_fall_on_rollout_boundaries(tmp_path):
     assert steps == [0, 64, 128, 192, 256], steps  # before learning, at each later rollout, the final model
     saved = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("model_*_steps.zip"))
     assert saved == [64, 128, 192], saved
+
+
+def test_a_time_limit_sets_the_cadence_of_evaluations_and_checkpoints_unless_a_frequency_is_given():
+    import argparse
+
+    import train
+
+    limited = argparse.Namespace(time_limit=4.0, timesteps=30_000_000)
+    assert train.clock_period(limited, None, 10) == 24.0  # a tenth of 4 minutes
+    assert train.clock_period(limited, None, 5) == 48.0
+    assert train.clock_period(limited, 100_000, 10) is None  # --eval-freq given: it alone
+    assert train.clock_period(argparse.Namespace(time_limit=None, timesteps=10), None, 10) is None
+    assert not train.clock_due(0.0, None)

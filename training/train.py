@@ -14,12 +14,14 @@ Writes into --out (created if missing):
                        written first; evaluate.py and --init-from read it
   model.zip            the final model (SB3 ``PPO.load``/``SAC.load``)
   best_model.zip       the model with the best held-out mean return so far
-  checkpoints/         model_<timesteps>_steps.zip every --checkpoint-freq timesteps (at the next
-                       rollout boundary: never the same parameters twice)
+  checkpoints/         model_<timesteps>_steps.zip every --checkpoint-freq timesteps (default: a
+                       fifth of --timesteps, and with --time-limit also every fifth of the
+                       limit), at the next rollout boundary: never the same parameters twice
   progress.csv, events.out.tfevents.*   SB3's logs (CSV and TensorBoard: tensorboard --logdir DIR)
   evaluations.json     the held-out evaluations (capture rate with its 95 % interval, capture
-                       steps, returns, ...) every --eval-freq timesteps, at the next rollout
-                       boundary (PPO: every n_steps × slots timesteps at most)
+                       steps, returns, ...) every --eval-freq timesteps (default: a tenth of
+                       --timesteps, and with --time-limit also every tenth of the limit), at
+                       the next rollout boundary (PPO: every n_steps × slots timesteps at most)
   learning_curve.png   held-out capture rate and training return against timesteps
   train_summary.json   wall time; time inside the environment and its share of training (held-out
                        evaluations excluded); rollout collection vs gradient updates; throughput;
@@ -81,9 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="run folder")
     p.add_argument("--init-from", default=None, metavar="DIR", help="start from this run's model (e.g. imitate.py's output)")
     p.add_argument("--num-envs", type=positive_int, default=None, help="worlds in the VecEnv (default: hyperparams.yaml num_envs.<side>)")
-    p.add_argument("--eval-freq", type=positive_int, default=None, help="held-out evaluation every this many timesteps (default timesteps/10)")
+    p.add_argument("--eval-freq", type=positive_int, default=None, help="held-out evaluation every this many timesteps (default timesteps/10, and with --time-limit every tenth of it too)")
     p.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per held-out evaluation (default 100)")
-    p.add_argument("--checkpoint-freq", type=positive_int, default=None, help="checkpoint every this many timesteps (default timesteps/5)")
+    p.add_argument("--checkpoint-freq", type=positive_int, default=None, help="checkpoint every this many timesteps (default timesteps/5, and with --time-limit every fifth of it too)")
     p.add_argument("--threads", type=positive_int, default=1, help="native worker threads for the VecEnv (default 1)")
     p.add_argument("--torch-threads", type=positive_int, default=1, help="torch intra-op threads (default 1: small MLPs run fastest so)")
     p.add_argument("--time-limit", type=float, default=None, metavar="MINUTES", help="stop learning after this many minutes of wall time (the model is saved as usual)")
@@ -99,10 +101,11 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
         """Every ``freq`` timesteps: the deterministic policy on episodes HELD_OUT_SEED + k
         against the scripted opponent; logs ``eval/*`` and keeps ``best_model.zip``."""
 
-        def __init__(self, freq: int, episodes: int) -> None:
+        def __init__(self, freq: int, episodes: int, period_s: float | None) -> None:
             super().__init__()
-            self.freq, self.episodes = freq, episodes
+            self.freq, self.episodes, self.period_s = freq, episodes, period_s
             self.last = 0
+            self.last_t = time.perf_counter()
             self.history: list[dict] = []
             self.best = -float("inf")
             self.seconds = 0.0
@@ -115,7 +118,7 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
         def _on_rollout_start(self) -> None:
             # Between rollouts the policy has just been updated: evaluating there (and only
             # there) never evaluates the same parameters twice, whatever --eval-freq says.
-            if self.num_timesteps - self.last >= self.freq:
+            if self.num_timesteps - self.last >= self.freq or clock_due(self.last_t, self.period_s):
                 self._evaluate()
 
         def _on_step(self) -> bool:
@@ -143,14 +146,27 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
             self.history.append(row)
             (out / "evaluations.json").write_text(json.dumps(self.history, indent=1) + "\n")
             self.seconds += time.perf_counter() - t0
+            self.last_t = time.perf_counter()
 
     deadline = None if args.time_limit is None else time.perf_counter() + 60 * args.time_limit
-    return HeldOutEvaluation(args.eval_freq or max(1, args.timesteps // 10), args.eval_episodes)
+    return HeldOutEvaluation(args.eval_freq or max(1, args.timesteps // 10), args.eval_episodes, clock_period(args, args.eval_freq, 10))
 
 
-def rollout_checkpoints(freq: int, folder: Path):
+def clock_period(args, freq: int | None, parts: int) -> float | None:
+    """With --time-limit and no explicit frequency: seconds between evaluations (``parts`` = 10)
+    or checkpoints (5), a ``parts``-th of the time limit — whichever budget ends the run, its
+    cadence follows (a 4-minute run with the documented 30 M timesteps evaluated twice when only
+    the timesteps set it)."""
+    return 60 * args.time_limit / parts if args.time_limit is not None and freq is None else None
+
+
+def clock_due(since: float, period_s: float | None) -> bool:
+    return period_s is not None and time.perf_counter() - since >= period_s
+
+
+def rollout_checkpoints(freq: int, folder: Path, period_s: float | None = None):
     """``checkpoints/model_<timesteps>_steps.zip`` at the first rollout boundary after every
-    ``freq`` timesteps: between rollouts the policy has just changed, so no two checkpoints hold
+    ``freq`` timesteps (or ``period_s`` seconds): between rollouts the policy has just changed, so no two checkpoints hold
     the same parameters (SB3's CheckpointCallback counts env steps and, with PPO's long
     rollouts, wrote the same model several times)."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -159,10 +175,11 @@ def rollout_checkpoints(freq: int, folder: Path):
         def __init__(self) -> None:
             super().__init__()
             self.last = 0
+            self.last_t = time.perf_counter()
 
         def _on_rollout_start(self) -> None:
-            if self.num_timesteps - self.last >= freq:
-                self.last = self.num_timesteps
+            if self.num_timesteps > self.last and (self.num_timesteps - self.last >= freq or clock_due(self.last_t, period_s)):
+                self.last, self.last_t = self.num_timesteps, time.perf_counter()
                 folder.mkdir(parents=True, exist_ok=True)
                 self.model.save(folder / f"model_{self.num_timesteps}_steps.zip")
 
@@ -170,6 +187,32 @@ def rollout_checkpoints(freq: int, folder: Path):
             return True
 
     return RolloutCheckpoints()
+
+
+def budget_bar(timesteps: int, time_limit_min: float):
+    """A progress bar over the nearer of the two budgets (timesteps, minutes), updated at every
+    rollout's end, with timesteps/s."""
+    from stable_baselines3.common.callbacks import BaseCallback
+    from tqdm import tqdm
+
+    class BudgetBar(BaseCallback):
+        def _on_training_start(self) -> None:
+            self.t0 = time.perf_counter()
+            self.bar = tqdm(total=1000, unit="‰", file=sys.stderr, bar_format="{percentage:3.0f}%|{bar:20}| {elapsed}<{remaining} {desc}")
+
+        def _on_rollout_end(self) -> None:
+            elapsed = time.perf_counter() - self.t0
+            done = max(self.num_timesteps / timesteps, elapsed / (60 * time_limit_min))
+            self.bar.update(min(1000, int(1000 * done)) - self.bar.n)
+            self.bar.set_description_str(f"{self.num_timesteps:,} timesteps, {self.num_timesteps / max(elapsed, 1e-9):,.0f}/s", refresh=False)
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+        def _on_step(self) -> bool:
+            return True
+
+    return BudgetBar()
 
 
 def phase_timer():
@@ -321,10 +364,15 @@ def main(argv: list[str] | None = None) -> int:
     evaluation = held_out_evaluation(args.side, params, out, args)
     ckpt_freq = args.checkpoint_freq or max(1, args.timesteps // 5)
     phases = phase_timer()
-    callbacks = [phases, evaluation, rollout_checkpoints(ckpt_freq, out / "checkpoints")]
+    callbacks = [phases, evaluation, rollout_checkpoints(ckpt_freq, out / "checkpoints", clock_period(args, args.checkpoint_freq, 5))]
+    # SB3's bar counts timesteps: with a time limit that ends the run first it promised hours.
+    # Then the bar follows whichever budget is nearer its end.
+    timed_bar = args.time_limit is not None and not args.no_progress
+    if timed_bar:
+        callbacks.append(budget_bar(args.timesteps, args.time_limit))
 
     t0 = time.perf_counter()
-    model.learn(total_timesteps=args.timesteps, callback=callbacks, progress_bar=not args.no_progress)
+    model.learn(total_timesteps=args.timesteps, callback=callbacks, progress_bar=not args.no_progress and not timed_bar)
     wall = time.perf_counter() - t0
     eval_in_learn = evaluation.seconds  # held-out evaluations during learn(), not training
     model.save(out / MODEL_FILE)
