@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -18,7 +19,8 @@ DOCS = [ROOT / "docs" / name for name in ("scenario.md", "guide.md", "learning.m
 
 
 def python_blocks(path: Path) -> list[str]:
-    return re.findall(r"```python\n(.*?)```", path.read_text(), flags=re.S)
+    # dedent: a block inside a list item is indented with it
+    return [textwrap.dedent(code) for code in re.findall(r"```python\n(.*?)```", path.read_text(), flags=re.S)]
 
 
 # (file, index within the file, code)

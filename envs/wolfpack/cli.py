@@ -202,10 +202,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help' or 'wolfpack benchmark --help' for details.",
+        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help', 'wolfpack benchmark --help' or 'wolfpack dataset --help' for details.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train,benchmark}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train,benchmark,dataset}", parser_class=_Parser)
 
     hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
                           description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -268,6 +268,9 @@ def build_parser() -> argparse.ArgumentParser:
     from wolfpack.scorecard_cli import add_parser as add_benchmark
 
     add_benchmark(sub, _Parser)
+    from wolfpack.dataset_cli import add_parser as add_dataset
+
+    add_dataset(sub, _Parser)
     return parser
 
 
