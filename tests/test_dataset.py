@@ -34,6 +34,9 @@ def test_npz_holds_the_scripted_episodes_and_replays_bit_for_bit(tmp_path):
     assert [len(e["terminated"]) for e in eps] == [r["steps"] for r in scripted]
     assert sum(len(e["terminated"]) for e in eps) == meta["steps"] == arrays["episode_offsets"][-1]
     assert meta["outcomes"] == dict(Counter(r["outcome"] for r in scripted))
+    # The size warned about is the per-step size times max_steps for every episode.
+    per_step = sum(arrays[k].nbytes for k in ("obs_wolves", "obs_targets", "state", "actions_wolves", "actions_targets", "rewards_wolves", "rewards_targets", "terminated", "truncated"))
+    assert dataset.upper_bound_bytes("fast-target-v1", 5) == per_step / meta["steps"] * 5 * 300
     # Replaying the recorded actions gives the recorded observations, rewards and endings.
     ep = eps[2]
     params = task_params("fast-target-v1", {"policies.wolves": "bvc"})

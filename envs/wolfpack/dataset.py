@@ -150,6 +150,16 @@ def _collect_chunk(params: dict, driver: Opponent, side: str, count: int, seed: 
     ]
 
 
+def upper_bound_bytes(task: str, episodes: int) -> int:
+    """The most an npz dataset of ``episodes`` episodes of ``task`` can take (every episode
+    running to ``world.max_steps``), in memory while recording and on disk: the figure
+    ``wolfpack dataset`` warns with."""
+    probe = BatchEnv(task=check_task(task), num_envs=1, learners="all", threads=1)
+    n, m = probe.n_wolves, probe.n_targets
+    floats = n * probe.wolf_obs_dim + m * probe.target_obs_dim + probe.state_dim + 3 * (n + m)  # observations, state, actions, rewards
+    return int(episodes * probe.params["world"]["max_steps"] * (4 * floats + 2))
+
+
 def write_npz(arrays: dict[str, np.ndarray], out: Path) -> Path:
     """``trajectories.npz`` in ``out``."""
     out.mkdir(parents=True, exist_ok=True)

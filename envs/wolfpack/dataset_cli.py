@@ -58,6 +58,10 @@ def cmd_dataset(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from wolfpack import dataset
 
     command = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
+    most = dataset.upper_bound_bytes(args.task, args.episodes)
+    if most > 1e9:
+        print(f"wolfpack: note: {args.episodes:,} episodes of {args.task} take up to {most / 1e9:.1f} GB (all of it in memory while recording; "
+              f"episodes that end sooner take less)", file=sys.stderr)
     with tqdm(total=args.episodes, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{args.policy} on {args.task}") as bar:
         meta = dataset.make(args.task, args.policy, args.out, side=args.side, episodes=args.episodes, seed=args.seed, fmt=args.fmt, threads=args.threads,
                             command=command, progress=bar.update)
