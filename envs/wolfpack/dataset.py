@@ -3,8 +3,9 @@
 A policy — a law or a saved model — plays one side of a task while the other side follows the
 task's scripted law, over episodes ``seed .. seed + episodes − 1`` (the episodes of ``wolfpack
 hunt --seed S``). Every recorded action is the one that moved its agent: a law's side acts
-through ``expert_actions()`` (its actions in the action space; following them ends every episode
-as ``wolfpack hunt`` does).
+through ``expert_actions()`` (its command as an action: the episodes are ``wolfpack hunt``'s up
+to the encoding's rounding — on seeds 0–999 of hunt-v1 the same outcomes, 7 ending at another
+step).
 
 Two formats:
 
