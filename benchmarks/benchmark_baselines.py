@@ -15,7 +15,7 @@ Writes ``envs/wolfpack/baselines.json`` (the package reads it to rank scorecards
 All on the held-out episodes (seeds 500000 + k) that scorecards play, deterministic laws, so the
 file is reproduced exactly by rerunning::
 
-    python benchmarks/benchmark_baselines.py                 # about 10 minutes on 2 cores
+    python benchmarks/benchmark_baselines.py                 # about a minute on 2 cores
     python benchmarks/benchmark_baselines.py --episodes 20 --out /tmp/baselines.json   # a quick look
 """
 

@@ -98,7 +98,7 @@ def curves(out: Path, runs: list[Path], side: str, axis: str = "minutes", oppone
     ax.legend(fontsize=8, loc="center right")
     against = f" against {opponent}" if opponent else ""
     algos = sorted({str((yaml.safe_load((run / "config.yaml").read_text()) or {}).get("algo", "?")).upper() for run in runs})
-    ax.set_title(f"{side} ({', '.join(algos)}){against}: {len(series)} training seeds, {series[0][0].size} evaluations each on held-out episodes", fontsize=10)
+    ax.set_title(f"{side} ({', '.join(algos)}){against}: {len(series)} training seeds,\n{series[0][0].size} evaluations each on held-out episodes", fontsize=10)
     fig.savefig(out / "curves.png", dpi=120)
     plt.close(fig)
 
