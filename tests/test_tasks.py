@@ -95,8 +95,8 @@ def test_task_params_are_copies_and_take_overrides():
     assert task_params("open-v1", {"world.wolves": 4})["world"]["wolves"] == 4
 
 
-def test_outcome_changes_names_the_overrides_outside_what_a_learner_observes_and_is_paid():
-    assert outcome_changes({"env.lidar.rays": 8, "rewards.wolves.shaping": 0.0}) == []
+def test_outcome_changes_names_the_overrides_outside_who_plays_and_what_a_learner_observes_and_is_paid():
+    assert outcome_changes({"env.lidar.rays": 8, "rewards.wolves.shaping": 0.0, "policies.wolves": "bvc"}) == []
     assert outcome_changes({"world.wolves": 4, "env.last_sighting": True}) == ["world.wolves"]
 
 
@@ -137,6 +137,8 @@ def test_hunt_takes_a_task_and_says_so():
     run = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--task", "fast-target-v1", "--episodes", "3"], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     assert run.stdout.startswith("task fast-target-v1: 3 episodes")
+    law = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--task", "open-v1", "--wolves", "bvc", "--episodes", "1"], capture_output=True, text=True)
+    assert law.stdout.startswith("task open-v1: 1 episodes, seeds 0..0: 5 bvc wolves")
     modified = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", "--task", "open-v1", "--set", "world.wolves=4", "--episodes", "2"], capture_output=True, text=True)
     assert modified.stdout.startswith("task open-v1 (modified): 2 episodes, seeds 0..1: 4 seed000")
 

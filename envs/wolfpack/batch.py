@@ -298,8 +298,8 @@ class BatchEnv:
         autoreset = check_flag(autoreset, "autoreset")
         check_override_keywords(overrides)
         self._base_params = resolve_params(params, overrides, task)
-        #: The task these worlds play (None: ``params``); with overrides outside ``env`` and
-        #: ``rewards`` it is a modified task (:func:`wolfpack.task.outcome_changes`).
+        #: The task these worlds play (None: ``params``); with overrides outside ``policies``,
+        #: ``env`` and ``rewards`` it is a modified task (:func:`wolfpack.task.outcome_changes`).
         self.task: str | None = task
         self.opponent: Opponent | None = as_opponent(opponent) if opponent is not None else None
         core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)

@@ -24,10 +24,11 @@ from wolfpack.config import _read_yaml, apply_overrides
 TASKS_DIR = Path(__file__).with_name("tasks")
 #: The tasks in the order tables list them: the documented scenario first.
 TASK_ORDER = ("hunt-v1", "open-v1", "cluttered-v1", "fast-target-v1", "small-pack-v1", "two-targets-v1", "short-sight-v1")
-#: Params sections whose keys never change how a scripted episode moves or ends: what a learner
-#: observes (``env``) and is paid (``rewards``). A task run with overrides elsewhere is a
-#: *modified task*.
-LEARNER_SECTIONS = ("env", "rewards")
+#: Params sections that are not the task itself: who plays it (``policies``: the laws being
+#: compared on it), what a learner observes (``env``) and what it is paid (``rewards``); the
+#: last two never change how a scripted episode moves or ends. A task run with overrides
+#: elsewhere is a *modified task*.
+PLAYER_SECTIONS = ("policies", "env", "rewards")
 
 
 def tasks() -> dict[str, str]:
@@ -60,9 +61,9 @@ def task_changes(name: str) -> dict[str, Any]:
 
 
 def outcome_changes(overrides: Mapping[str, Any]) -> list[str]:
-    """The dotted override keys that can change a task's scripted outcomes (every key outside
-    :data:`LEARNER_SECTIONS`): a run with any of them plays a modified task."""
-    return [k for k in overrides if str(k).split(".", 1)[0] not in LEARNER_SECTIONS]
+    """The dotted override keys that change the task itself (every key outside
+    :data:`PLAYER_SECTIONS`): a run with any of them plays a modified task."""
+    return [k for k in overrides if str(k).split(".", 1)[0] not in PLAYER_SECTIONS]
 
 
 def gym_id(name: str) -> str:
