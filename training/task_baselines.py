@@ -22,7 +22,7 @@ Runs go one after another (each has the machine to itself), task by task; a reru
 --keep skips the runs that finished and the evaluations already made (--reevaluate redoes them,
 after a change to the core). The results (every run's held-out score, and per task and learner the
 interquartile mean over seeds with its 95 % percentile bootstrap interval; see
-training/learned_report.py for the tables and figures) go to --out, default
+training/benchmark_report.py for the tables and figures) go to --out, default
 ``results/benchmark/learned.json``, rewritten after every run so that an interrupted sweep keeps
 what it measured.
 """
