@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
+from wolfpack.scorecard import SKILL
 from wolfpack.task import TASK_ORDER
 
 RESULTS = Path("results/benchmark")
-SKILL = {"wolves": "captured", "targets": "survived"}
 RESAMPLES = 10_000
 #: Thresholds of the performance profiles.
 TAUS = np.linspace(0.0, 1.0, 201)
@@ -101,7 +101,7 @@ def markdown(table: dict, learned: dict, baselines: dict) -> str:
         if not names:
             continue
         opponent = "the task's `escape` target" if side == "wolves" else "the task's `seed000` wolves"
-        lines += ["", f"## {side.capitalize()}: {SKILL[side]} against {opponent}", "", "| task | " + " | ".join(f"`{n}`" for n in names) + " |",
+        lines += ["", f"## {side.capitalize()}: {SKILL[side][1]} against {opponent}", "", "| task | " + " | ".join(f"`{n}`" for n in names) + " |",
                   "|---|" + "---|" * len(names)]
         for task in TASK_ORDER:
             cells = []
@@ -149,7 +149,7 @@ def task_figure(table: dict, path: Path) -> None:
                 for t, y in zip(tasks, ys):
                     runs = 100 * np.asarray(entry["tasks"][t]["runs"])
                     ax.plot(runs, np.full(len(runs), y), "|", color=ax.lines[-1].get_color(), ms=7, alpha=0.7)
-        ax.set_title(f"{side}: {SKILL[side]} (%)")
+        ax.set_title(f"{side}: {SKILL[side][1]} (%)")
         ax.set_xlim(-2, 102)
         ax.grid(axis="x", alpha=0.3)
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=3, frameon=False)
@@ -177,7 +177,7 @@ def profile_figure(table: dict, path: Path) -> None:
             if learned:
                 lo, hi = profile_band(per_task)
                 ax.fill_between(100 * TAUS, lo, hi, color=line.get_color(), alpha=0.2)
-        ax.set_xlabel(f"threshold τ: {SKILL[side]} (%)")
+        ax.set_xlabel(f"threshold τ: {SKILL[side][1]} (%)")
         ax.set_title(f"{side}")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="upper right")

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 import time
@@ -116,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
                 folder = run_folder(args.keep, task, name, seed)
                 if not (folder / "summary.json").exists():
                     if folder.exists():  # an interrupted run: start it again
-                        subprocess.run(["rm", "-rf", str(folder)], check=True)
+                        shutil.rmtree(folder)
                     train(folder, side, algo, task, budgets[side], seed)
                 summary = json.loads((folder / "summary.json").read_text())
                 row = held_out(folder, side, task, args.episodes, args.reevaluate)
