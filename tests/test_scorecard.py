@@ -82,17 +82,47 @@ def test_a_policy_of_the_other_side_is_refused():
         scorecard.scorecard("bvc", "wolves", tasks=["hunt-v0"], episodes=1)
 
 
+def _laws(entries: dict) -> set[str]:
+    return {name for name, entry in entries.items() if entry["kind"] == "law"}
+
+
 def test_the_committed_baselines_cover_every_task_and_reproduce():
     base = scorecard.load_baselines()
     assert (base["episodes"], base["first_seed"]) == (scorecard.DEFAULT_EPISODES, HELD_OUT_SEED)
-    assert set(base["wolves"]) == {"seed000", "bvc", "formation"} and set(base["targets"]) == {"escape", "random", "still"}
+    assert _laws(base["wolves"]) == {"seed000", "bvc", "formation"} and _laws(base["targets"]) == {"escape", "random", "still"}
     for side in ("wolves", "targets"):
-        for entry in base[side].values():
-            assert list(entry["tasks"]) == list(TASK_ORDER)
+        for name in _laws(base[side]):
+            assert list(base[side][name]["tasks"]) == list(TASK_ORDER)
+    # The learned baselines join their side's ranking on the tasks they were trained on.
+    assert {"ippo-wolves", "mappo-wolves"} <= set(base["wolves"]) and "mappo-escaper" in base["targets"]
+    assert "hunt-v1" in base["wolves"]["mappo-wolves"]["tasks"]
     # The laws are deterministic on these episodes: one row, rerun, is the very number.
     card = scorecard.scorecard("seed000", "wolves", tasks=["open-v1"])
     assert card["tasks"]["open-v1"]["score"] == base["wolves"]["seed000"]["tasks"]["open-v1"]["score"]
-    assert card["tasks"]["open-v1"]["ranked_among"] == 3
+    others = [name for name, entry in base["wolves"].items() if name != "seed000" and "open-v1" in entry["tasks"]]
+    assert card["tasks"]["open-v1"]["ranked_among"] == len(others) + 1 >= 5
+
+
+def test_learned_baselines_rank_by_the_iqm_of_their_seeds_on_the_same_episodes(tmp_path):
+    laws = {"episodes": 6, "first_seed": 0, "wolves": {"seed000": {"kind": "law", "tasks": {"open-v1": {"score": 0.9}}}}, "targets": {}}
+    learned = {"episodes": 6, "first_seed": 0, "learners": {"ippo-wolves": {"side": "wolves", "algo": "ippo"},
+                                                           "mappo-escaper": {"side": "targets", "algo": "mappo"}},
+               "summary": {"open-v1": {"ippo-wolves": {"iqm": 2.0, "ci95": [1.5, 2.5], "n": 5},
+                                       "mappo-escaper": {"iqm": 0.7, "ci95": [0.6, 0.8], "n": 5}}}}
+    (tmp_path / "laws.json").write_text(json.dumps(laws))
+    (tmp_path / "learned.json").write_text(json.dumps(learned))
+    base = scorecard.load_baselines(tmp_path / "laws.json", tmp_path / "learned.json")
+    assert base["wolves"]["ippo-wolves"] == {"kind": "learned", "tasks": {"open-v1": {"score": 2.0, "score_ci95": [1.5, 2.5], "seeds": 5}}}
+    assert base["targets"]["mappo-escaper"]["tasks"]["open-v1"]["score"] == 0.7
+    card = scorecard.scorecard("bvc", "wolves", tasks=["open-v1"], episodes=6, seed=0, baselines=base)
+    row = card["tasks"]["open-v1"]
+    assert row["baselines"] == {"seed000": 0.9, "ippo-wolves": 2.0}
+    assert row["rank"] >= 2 and row["ranked_among"] == 3
+    assert card["baseline_kinds"] == {"seed000": "law", "ippo-wolves": "learned"}
+    # Learners scored on other episodes than the laws' are not comparable: left out.
+    (tmp_path / "learned.json").write_text(json.dumps({**learned, "first_seed": 1}))
+    base = scorecard.load_baselines(tmp_path / "laws.json", tmp_path / "learned.json")
+    assert set(base["wolves"]) == {"seed000"} and base["targets"] == {}
 
 
 def test_benchmark_writes_a_scorecard_json_markdown_and_figure(tmp_path):

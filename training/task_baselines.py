@@ -22,8 +22,9 @@ Runs go one after another (each has the machine to itself), task by task; a reru
 --keep skips the runs that finished and the evaluations already made (--reevaluate redoes them,
 after a change to the core). The results (every run's held-out score, and per task and learner the
 interquartile mean over seeds with its 95 % percentile bootstrap interval; see
-training/benchmark_report.py for the tables and figures) go to --out, default
-``results/benchmark/learned.json``, rewritten after every run so that an interrupted sweep keeps
+training/benchmark_report.py for the tables and figures) go to --out, default the package's
+``learned.json`` (``results/benchmark/learned.json`` links to it; ``wolfpack benchmark`` ranks
+scorecards among these learners), rewritten after every run so that an interrupted sweep keeps
 what it measured.
 """
 
@@ -42,7 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from seeds import iqm_interval  # noqa: E402
 
 from wolfpack.evaluation import HELD_OUT_SEED  # noqa: E402
-from wolfpack.scorecard import DEFAULT_EPISODES, as_policy, score_task  # noqa: E402
+from wolfpack.scorecard import DEFAULT_EPISODES, LEARNED_FILE, as_policy, score_task  # noqa: E402
 from wolfpack.task import TASK_ORDER  # noqa: E402
 
 #: (name, side, algorithm) of each learner.
@@ -52,7 +53,7 @@ LEARNERS = (("ippo-wolves", "wolves", "ippo"), ("mappo-wolves", "wolves", "mappo
 DEFAULT_BUDGETS = {"wolves": 10_000_000, "targets": 2_000_000}
 #: What the held-out row keeps.
 KEPT = ("score", "score_ci95", "collision_rate", "target_collision_rate", "timeout_rate", "median_capture_steps")
-DEFAULT_OUT = Path("results/benchmark/learned.json")
+DEFAULT_OUT = LEARNED_FILE
 
 
 def run_folder(keep: Path, task: str, learner: str, seed: int) -> Path:

@@ -13,10 +13,16 @@ A policy built for another observation size than a task's (a 5-wolf model on ``s
 one target's on ``two-targets-v1``) cannot play that task: the task is marked skipped with the
 one-line reason, and a policy that fits no task is an error.
 
-The baselines (``baselines.json`` beside this module; ``results/benchmark/baselines.json`` in the
-repository) hold, per side, the analytic laws' scores on the same episodes, written by
-``python benchmarks/benchmark_baselines.py``. A scorecard's rank on a task is 1 + the number of
-baselines of its side that scored higher.
+The baselines a scorecard is ranked among come from two files beside this module (linked from
+``results/benchmark/`` in the repository):
+
+- ``baselines.json``: per side, the analytic laws' scores on the same episodes, written by
+  ``python benchmarks/benchmark_baselines.py``;
+- ``learned.json``: the learned baselines (IPPO and MAPPO wolves, a MAPPO escaper, 5 training
+  seeds each), written by ``python training/task_baselines.py``; a learner enters a task's
+  ranking with the interquartile mean of its seeds' scores on the same episodes.
+
+A scorecard's rank on a task is 1 + the number of baselines of its side that scored higher.
 """
 
 from __future__ import annotations
@@ -31,8 +37,9 @@ from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
 from wolfpack.opponents import SIDES, Opponent
 from wolfpack.task import TASK_ORDER, check_task, task_params
 
-#: The committed baselines.
+#: The committed baselines: the analytic laws, and the learners' IQMs over training seeds.
 BASELINES_FILE = Path(__file__).with_name("baselines.json")
+LEARNED_FILE = Path(__file__).with_name("learned.json")
 #: Episodes per task unless told otherwise.
 DEFAULT_EPISODES = 200
 #: What each side is scored on: the report's key and how tables name it.
@@ -76,14 +83,34 @@ def score_task(policy: Opponent, side: str, task: str, *, episodes: int = DEFAUL
     return row
 
 
-def load_baselines(path: str | Path | None = None) -> dict:
+def load_baselines(path: str | Path | None = None, learned: str | Path | None = None) -> dict:
     """The committed baselines: ``{"episodes", "first_seed", "wolves": {name: entry},
     "targets": {name: entry}}``, each entry ``{"kind", "tasks": {task: {"score", "score_ci95",
-    ...}}}``. An empty set when the file is absent."""
+    ...}}}``: the laws of ``path`` (default ``baselines.json``) with ``kind: "law"``, and the
+    learners of ``learned`` (default ``learned.json``) that were scored on the same episodes, with
+    ``kind: "learned"`` and the IQM over their training seeds as the score. An empty set when the
+    laws' file is absent."""
     path = Path(path) if path is not None else BASELINES_FILE
     if not path.exists():
         return {"episodes": None, "first_seed": None, "wolves": {}, "targets": {}}
-    return json.loads(path.read_text(encoding="utf-8"))
+    base = json.loads(path.read_text(encoding="utf-8"))
+    learned = Path(learned) if learned is not None else LEARNED_FILE
+    if learned.exists():
+        _add_learned(base, json.loads(learned.read_text(encoding="utf-8")))
+    return base
+
+
+def _add_learned(base: dict, learned: dict) -> None:
+    """Adds ``learned``'s learners (task_baselines.py's summary) to ``base`` as baselines of their
+    side, where they were scored on ``base``'s episodes: a learner's score on a task is the IQM
+    of its seeds' scores, its interval the bootstrap interval over seeds."""
+    if (learned.get("episodes"), learned.get("first_seed")) != (base.get("episodes"), base.get("first_seed")):
+        return
+    for name, spec in learned.get("learners", {}).items():
+        tasks = {task: {"score": row[name]["iqm"], "score_ci95": row[name]["ci95"], "seeds": row[name]["n"]}
+                 for task, row in learned.get("summary", {}).items() if name in row}
+        if tasks:
+            base.setdefault(spec["side"], {})[name] = {"kind": "learned", "tasks": tasks}
 
 
 def rank(score: float, others: Sequence[float]) -> int:
@@ -128,6 +155,7 @@ def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, epi
         "first_seed": seed,
         "deterministic": True,
         "ranked_against": "committed baselines" if comparable else None,
+        "baseline_kinds": {name: entry["kind"] for name, entry in baselines.get(side, {}).items()},
         "tasks": rows,
         "tasks_played": played,
         "mean_score": sum(rows[t]["score"] for t in played) / len(played),
@@ -160,7 +188,8 @@ def markdown(card: dict) -> str:
         "",
         f"{card['episodes']} deterministic episodes per task (seeds {card['first_seed']}..{card['first_seed'] + card['episodes'] - 1}), "
         f"against each task's scripted {other}; score = {verb}, with its 95 % Wilson interval. "
-        + ("Rank among the committed baselines of the same episodes." if card["ranked_against"] else "No committed baselines for these episodes: no ranks."),
+        + ("Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the "
+           "interquartile mean of their training seeds)." if card["ranked_against"] else "No committed baselines for these episodes: no ranks."),
         "",
         f"| task | {verb} (95 % interval) | {side[:-1]} collisions | timeouts | rank | best baseline |",
         "|---|---|---:|---:|---:|---|",
@@ -180,6 +209,10 @@ def markdown(card: dict) -> str:
     return "\n".join(lines)
 
 
+#: How the figure's legend names each kind of baseline.
+_KIND_LABEL = {"law": "law", "learned": "learned, IQM of seeds"}
+
+
 def figure(card: dict, path: str | Path) -> None:
     """The scorecard as a dot plot: per task, the policy's score with its interval against the
     baselines' scores."""
@@ -196,7 +229,7 @@ def figure(card: dict, path: str | Path) -> None:
         ys = [i for i, t in enumerate(tasks) if name in card["tasks"][t].get("baselines", {})]
         xs = [100 * card["tasks"][tasks[i]]["baselines"][name] for i in ys]
         ax.scatter(xs, [y + 0.18 for y in ys], marker=markers[k % len(markers)], s=28, color="0.55", edgecolor="0.25", linewidth=0.5,
-                   label=f"{name} (baseline)", zorder=2)
+                   label=f"{name} ({_KIND_LABEL.get(card.get('baseline_kinds', {}).get(name), 'baseline')})", zorder=2)
     played = [i for i, t in enumerate(tasks) if "score" in card["tasks"][t]]
     xs = [100 * card["tasks"][tasks[i]]["score"] for i in played]
     lo = [x - 100 * card["tasks"][tasks[i]]["score_ci95"][0] for x, i in zip(xs, played)]
