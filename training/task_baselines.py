@@ -32,8 +32,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -41,6 +39,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from seeds import iqm_interval  # noqa: E402
+from sweep import held_out, train_once  # noqa: E402
 
 from wolfpack.evaluation import HELD_OUT_SEED  # noqa: E402
 from wolfpack.scorecard import DEFAULT_EPISODES, LEARNED_FILE, as_policy, score_task  # noqa: E402
@@ -60,24 +59,12 @@ def run_folder(keep: Path, task: str, learner: str, seed: int) -> Path:
     return keep / task / f"{learner}_s{seed}"
 
 
-def train(folder: Path, side: str, algo: str, task: str, timesteps: int, seed: int) -> None:
-    cmd = [sys.executable, "-m", "wolfpack.cli", "train", "--side", side, "--algo", algo, "--task", task, "--timesteps", str(timesteps), "--seed", str(seed),
-           "--evaluations", "2", "--no-progress", "--out", str(folder)]
-    print(f"[{time.strftime('%H:%M:%S')}] {' '.join(cmd[2:])}", file=sys.stderr, flush=True)
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-
-
-def held_out(folder: Path, side: str, task: str, episodes: int, reevaluate: bool) -> dict:
-    """The final model's scorecard row on its task (cached in the run folder)."""
-    cache = folder / "held_out.json"
-    if cache.exists() and not reevaluate:
-        row = json.loads(cache.read_text())
-        if row.get("episodes") == episodes:
-            return row
-    full = score_task(as_policy(str(folder / side), side), side, task, episodes=episodes, seed=HELD_OUT_SEED)
-    row = {"episodes": episodes, **{k: full[k] for k in KEPT if k in full}}
-    cache.write_text(json.dumps(row, indent=1) + "\n")
-    return row
+def held_out_row(folder: Path, side: str, task: str, episodes: int, reevaluate: bool) -> dict:
+    """The final model's scorecard row on its task."""
+    def evaluate() -> dict:
+        full = score_task(as_policy(str(folder / side), side), side, task, episodes=episodes, seed=HELD_OUT_SEED)
+        return {k: full[k] for k in KEPT if k in full}
+    return held_out(folder, episodes, evaluate, reevaluate)
 
 
 def summarise(runs: list[dict]) -> dict:
@@ -116,12 +103,8 @@ def main(argv: list[str] | None = None) -> int:
         for name, side, algo in learners:
             for seed in range(args.seeds):
                 folder = run_folder(args.keep, task, name, seed)
-                if not (folder / "summary.json").exists():
-                    if folder.exists():  # an interrupted run: start it again
-                        shutil.rmtree(folder)
-                    train(folder, side, algo, task, budgets[side], seed)
-                summary = json.loads((folder / "summary.json").read_text())
-                row = held_out(folder, side, task, args.episodes, args.reevaluate)
+                summary = train_once(folder, ["--side", side, "--algo", algo, "--task", task, "--timesteps", str(budgets[side]), "--seed", str(seed), "--evaluations", "2"])
+                row = held_out_row(folder, side, task, args.episodes, args.reevaluate)
                 runs.append({"task": task, "learner": name, "side": side, "algo": algo, "seed": seed, "agent_steps": summary["agent_steps"],
                              "train_s": round(summary["train_s"], 1), **{k: row[k] for k in KEPT if k in row}, "run": str(folder)})
                 doc = {
