@@ -61,3 +61,15 @@ def test_the_performance_profile_counts_runs_above_each_threshold():
     prof = benchmark_report.profile([np.array([0.2, 0.6]), np.array([0.8])])
     at = {round(float(t), 3): p for t, p in zip(benchmark_report.TAUS, prof)}
     assert at[0.0] == 1.0 and at[0.5] == pytest.approx(2 / 3) and at[0.7] == pytest.approx(1 / 3) and at[0.9] == 0.0
+
+
+def test_a_task_with_one_seed_so_far_is_tabled_but_left_out_of_the_aggregate(tmp_path):
+    _write(tmp_path)
+    learned = json.loads((tmp_path / "learned.json").read_text())
+    learned["runs"].append({"task": "cluttered-v1", "learner": "mappo-wolves", "seed": 0, "score": 0.5})
+    learned["summary"]["cluttered-v1"] = {"mappo-wolves": {"iqm": 0.5, "ci95": [0.5, 0.5]}}
+    (tmp_path / "learned.json").write_text(json.dumps(learned))
+    assert benchmark_report.main(["--results", str(tmp_path)]) == 0  # a sweep in progress still reports
+    text = (tmp_path / "benchmark.md").read_text()
+    assert "| `cluttered-v1` | — | 50.0 % [50.0, 50.0] (n=1) |" in text
+    assert "`mappo-wolves`: **89.2 %**" in text and "on 2 tasks" in text  # as before: one seed is no stratum

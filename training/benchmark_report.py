@@ -85,6 +85,7 @@ def collect(baselines: dict, learned: dict) -> dict:
 
 
 def markdown(table: dict, learned: dict, baselines: dict) -> str:
+    """benchmark.md: what the scores are and where they come from, then ``tables_markdown``."""
     budgets = learned.get("budgets", {})
     lines = [
         "# The benchmark's baselines",
@@ -96,12 +97,19 @@ def markdown(table: dict, learned: dict, baselines: dict) -> str:
         f"{budgets.get('targets', 0):,}): the interquartile mean over training seeds with its 95 % percentile bootstrap interval, "
         "and the number of seeds. A task without a learner's column has not been trained yet.",
     ]
+    return "\n".join(lines) + "\n" + tables_markdown(table)
+
+
+def tables_markdown(table: dict, heading: str = "##") -> str:
+    """Per side, the per-task table of every baseline and each learner's IQM over the tasks;
+    sections start with ``heading`` so that RESULTS.md can nest them a level deeper."""
+    lines: list[str] = []
     for side in ("wolves", "targets"):
         names = list(table[side])
         if not names:
             continue
         opponent = "the task's `escape` target" if side == "wolves" else "the task's `seed000` wolves"
-        lines += ["", f"## {side.capitalize()}: {SKILL[side][1]} against {opponent}", "", "| task | " + " | ".join(f"`{n}`" for n in names) + " |",
+        lines += ["", f"{heading} {side.capitalize()}: {SKILL[side][1]} against {opponent}", "", "| task | " + " | ".join(f"`{n}`" for n in names) + " |",
                   "|---|" + "---|" * len(names)]
         for task in TASK_ORDER:
             cells = []
@@ -116,11 +124,41 @@ def markdown(table: dict, learned: dict, baselines: dict) -> str:
             lines.append(f"| `{task}` | " + " | ".join(cells) + " |")
         learners = [n for n in names if table[side][n]["kind"] == "learned"]
         if learners:
-            lines += ["", "Over the tasks trained so far (IQM over every task × seed, 95 % stratified bootstrap interval):", ""]
+            lines += ["", "Over the tasks trained so far (IQM over every task × seed, 95 % stratified bootstrap interval; a task enters once it "
+                      "has two seeds, the fewest a stratum can be resampled from):", ""]
             for n in learners:
-                per_task = [np.asarray(r["runs"]) for r in table[side][n]["tasks"].values()]
+                per_task = [np.asarray(r["runs"]) for r in table[side][n]["tasks"].values() if len(r["runs"]) >= 2]
+                if not per_task:
+                    continue
                 point, ci = stratified_iqm(per_task)
                 lines.append(f"- `{n}`: **{100 * point:.1f} %** [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}] on {len(per_task)} task{'s' if len(per_task) != 1 else ''}")
+    return "\n".join(lines) + "\n" if lines else ""
+
+
+def front_page_markdown(table: dict) -> str:
+    """README's benchmark table: per task the best law and the best learner of each side (a
+    learner by its IQM over seeds), then how often the best law leads."""
+    def best(side: str, kind: str, task: str) -> tuple[str, dict] | None:
+        rows = [(name, entry["tasks"][task]) for name, entry in table[side].items() if entry["kind"] == kind and task in entry["tasks"]]
+        return max(rows, key=lambda row: row[1]["score"]) if rows else None
+
+    def cell(found: tuple[str, dict] | None, seeds: bool) -> str:
+        if found is None:
+            return "not trained yet"
+        name, row = found
+        return f"`{name}` {100 * row['score']:.1f} %" + (f" (n={len(row['runs'])})" if seeds else "")
+
+    lines = ["| task | wolves, best law: captured | wolves, best learned: captured (IQM over seeds) | targets, best law: survived | targets, best learned: survived (IQM) |",
+             "|---|---|---|---|---|"]
+    law_leads, compared = 0, 0
+    for task in TASK_ORDER:
+        law, learner = best("wolves", "law", task), best("wolves", "learned", task)
+        if law and learner:
+            compared += 1
+            law_leads += law[1]["score"] > learner[1]["score"]
+        lines.append(f"| `{task}` | {cell(law, False)} | {cell(learner, True)} | {cell(best('targets', 'law', task), False)} | {cell(best('targets', 'learned', task), True)} |")
+    if compared:
+        lines += ["", f"The best analytic law captures more than the best learned pack on **{law_leads} of the {compared} tasks** trained so far."]
     return "\n".join(lines) + "\n"
 
 

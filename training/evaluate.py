@@ -248,7 +248,9 @@ def robustness(cells: list[dict], wolves: list[str], targets: list[str]) -> dict
     return out
 
 
-def matrix_markdown(doc: dict) -> str:
+def matrix_summary_markdown(doc: dict) -> str:
+    """The cross-play table alone (capture rate, interval and collisions per cell, each policy's
+    worst case): what RESULTS.md quotes, without the every-column table below it."""
     by = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
     wolves, targets, rob = doc["wolves"], doc["targets"], doc["robustness"]
     lines = [f"Capture rate (95 % interval) · wolf collisions; {doc['episodes']} episodes per cell, seeds {doc['seed']}–{doc['seed'] + doc['episodes'] - 1}.", "",
@@ -263,8 +265,12 @@ def matrix_markdown(doc: dict) -> str:
         cells.append(f"**{r['worst_capture_rate']:.1%}** vs {r['against']}")
         lines.append(f"| {w} | " + " | ".join(cells) + " |")
     lines.append("| worst case (survival) | " + " | ".join(f"**{rob['targets'][t]['worst_survival_rate']:.1%}** vs {rob['targets'][t]['against']}" for t in targets) + " | |")
-    lines += ["", "Every cell, every column:", "", markdown(doc["cells"])]
     return "\n".join(lines)
+
+
+def matrix_markdown(doc: dict) -> str:
+    """matrix.md: the cross-play table, then every cell with every column."""
+    return "\n".join([matrix_summary_markdown(doc), "", "Every cell, every column:", "", markdown(doc["cells"])])
 
 
 def matrix_plot(doc: dict, path: Path) -> None:

@@ -51,6 +51,22 @@ def iqm_interval(values: list[float], resamples: int = 10_000) -> dict:
     return {"iqm": iqm, "ci95": [lo, hi], "median": float(np.median(x)), "min": float(x.min()), "max": float(x.max()), "n": int(len(x))}
 
 
+def iqm_cell(summary: dict) -> str:
+    """``95.5 % [95.0, 96.8]``: an ``iqm_interval`` as seeds.md and RESULTS.md print it."""
+    return f"{100 * summary['iqm']:.1f} % [{100 * summary['ci95'][0]:.1f}, {100 * summary['ci95'][1]:.1f}]"
+
+
+def range_cell(summary: dict) -> str:
+    """``95.0 % (95.0–97.0)``: the median over seeds and their range."""
+    return f"{100 * summary['median']:.1f} % ({100 * summary['min']:.1f}–{100 * summary['max']:.1f})"
+
+
+def median_capture_step(rows: list[dict]) -> float | None:
+    """The median over seeds of each seed's median capture step (None: no seed captured)."""
+    steps = [r["median_capture_steps"] for r in rows if r["median_capture_steps"] is not None]
+    return float(np.median(steps)) if steps else None
+
+
 def opponents_of(side: str, specs: list[str]) -> list:
     """The --against policies of the other side: laws by name, models loaded, leagues expanded."""
     from wolfpack.opponents import SCRIPTED_LAWS
@@ -138,10 +154,9 @@ def main(argv: list[str] | None = None) -> int:
     for name, rows in per_opponent.items():
         s = iqm_interval([skill(side, r) for r in rows])
         c = iqm_interval([r["collision_rate"] for r in rows])
-        steps = [r["median_capture_steps"] for r in rows if r["median_capture_steps"] is not None]
+        step = median_capture_step(rows)
         doc["opponents"][name] = {"skill": s, "collision_rate": c, "rows": rows}
-        lines.append(f"| {name} | {100 * s['iqm']:.1f} % [{100 * s['ci95'][0]:.1f}, {100 * s['ci95'][1]:.1f}] | {100 * s['median']:.1f} % ({100 * s['min']:.1f}–{100 * s['max']:.1f}) "
-                     f"| {100 * c['iqm']:.1f} % [{100 * c['ci95'][0]:.1f}, {100 * c['ci95'][1]:.1f}] | {np.median(steps) if steps else '—'} |")
+        lines.append(f"| {name} | {iqm_cell(s)} | {range_cell(s)} | {iqm_cell(c)} | {'—' if step is None else step} |")
     (out / "seeds.json").write_text(json.dumps(doc, indent=1) + "\n")
     (out / "seeds.md").write_text("\n".join(lines) + "\n")
     curves(out, [Path(r) for r in args.runs], side, args.curves_by, opponent=next(iter(per_opponent)))

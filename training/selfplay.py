@@ -330,8 +330,10 @@ def evaluate_member(args, out: Path, league: dict, entry: dict, progress=None, a
 # --- reports -----------------------------------------------------------------------------------
 
 
-def league_table(league: dict) -> str:
-    """Markdown: wolf members (rows) × target members (columns), capture rates."""
+def league_table(league: dict, steps_header: str = "timesteps") -> str:
+    """Markdown: wolf members (rows) × target members (columns), capture rates; then one row per
+    generation. ``steps_header`` names what a generation's ``timesteps`` count (RESULTS.md calls
+    the native trainer's agent-steps by their name)."""
     wolves, targets = members_of(league, "wolves"), members_of(league, "targets")
     lines = ["capture rate (held-out episodes; rows: wolves, columns: targets; blank: not played)", "",
              "| wolves \\ targets | " + " | ".join(t["name"] for t in targets) + " |", "|---|" + "---|" * len(targets)]
@@ -341,7 +343,7 @@ def league_table(league: dict) -> str:
             rate = win_rate(league, w["name"], "wolves", t["name"])
             cells.append("" if rate is None else f"{rate:.0%}")
         lines.append(f"| {w['name']} | " + " | ".join(cells) + " |")
-    lines += ["", "| generation | side | timesteps | wall (min) | started from | opponents drawn |", "|---|---|---|---|---|---|"]
+    lines += ["", f"| generation | side | {steps_header} | wall (min) | started from | opponents drawn |", "|---|---|---|---|---|---|"]
     for g in league["generations"]:
         drawn = ", ".join(f"{k} ×{v}" for k, v in sorted(g["opponents_drawn"].items(), key=lambda kv: -kv[1]))
         lines.append(f"| {g['generation']} | {g['side']} | {g['timesteps']:,} | {g['wall_s'] / 60:.1f} | {g['started_from'] or 'fresh'} | {drawn} |")

@@ -5,10 +5,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 if [ ! -x .venv-rllib/bin/python ]; then
+  echo "making .venv-rllib for the RLlib tests: ray[rllib] and torch, several GB on first use"
   python3 -m venv .venv-rllib
   .venv-rllib/bin/python -m pip install --quiet --upgrade pip
 fi
-.venv-rllib/bin/python -m pip install --quiet --progress-bar off -e ".[rllib]" "pytest>=8"
+.venv-rllib/bin/python -m pip install -e ".[rllib]" "pytest>=8"
 # Keep Ray on loopback for the tests (on a real cluster leave this unset).
 export RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0
 exec .venv-rllib/bin/python -m pytest -p no:cacheprovider tests/rllib "$@"

@@ -1,0 +1,96 @@
+"""training/results_report.py: RESULTS.md's tables are the ones the committed results give, and a
+changed result makes its table stale."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "training"))
+
+pytest.importorskip("scipy")
+pytest.importorskip("yaml")
+
+import results_report  # noqa: E402
+
+
+@pytest.fixture
+def copied(tmp_path) -> tuple[list[Path], Path]:
+    """Scratch copies of RESULTS.md and README.md and of the JSON, YAML and CSV under results/
+    (models, figures and links left out or resolved), so a test may change a result."""
+    results = tmp_path / "results"
+    shutil.copytree(ROOT / "results", results, ignore=shutil.ignore_patterns("*.zip", "*.pt", "*.png", "events.out.*"))
+    documents = [tmp_path / "RESULTS.md", tmp_path / "README.md"]
+    for document in documents:
+        shutil.copyfile(ROOT / document.name, document)
+    return documents, results
+
+
+def test_the_committed_tables_are_what_the_committed_results_give():
+    problems = results_report.check(results_report.DOCUMENTS, ROOT / "results")
+    assert problems == [], f"{problems}: run python training/results_report.py"
+
+
+def test_every_registered_table_has_one_block_in_results_md_or_readme():
+    names = [name for document in results_report.DOCUMENTS for name, _, _ in results_report.blocks_of(document.read_text())]
+    assert sorted(names) == sorted(results_report.BLOCKS)
+    assert len(names) == len(set(names))
+
+
+def test_a_changed_result_makes_its_table_stale_and_the_report_rewrites_it(copied, capsys):
+    documents, results = copied
+    document = documents[0]
+    out = ["--out", *map(str, documents)]
+    seeds_file = results / "learned" / "wolves_mappo" / "seeds.json"
+    doc = json.loads(seeds_file.read_text())
+    doc["opponents"]["escape"]["skill"]["iqm"] = 0.5  # was 0.955
+    seeds_file.write_text(json.dumps(doc))
+    before = document.read_text()
+
+    assert results_report.check(documents, results) == ["stale in RESULTS.md: wolves-mappo-seeds"]
+    assert results_report.main(["--check", "--results", str(results), *out]) == 1
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and "wolves-mappo-seeds" in message and "matrix" not in message
+    assert document.read_text() == before  # --check writes nothing
+
+    assert results_report.main(["--results", str(results), *out]) == 0
+    after = document.read_text()
+    assert "| escape (trained against) | **50.0 % [95.0, 96.8]** |" in after
+    assert after.replace("**50.0 % [95.0, 96.8]**", "**95.5 % [95.0, 96.8]**") == before  # only that cell moved
+    assert results_report.check(documents, results) == []
+
+
+def test_a_table_edited_by_hand_is_stale(copied):
+    (document, readme), results = copied
+    text = document.read_text()
+    typed = text.replace("| 1 | targets | 13,615,104 | 4.5 |", "| 1 | targets | 13,615,104 | 4.6 |")
+    assert typed != text
+    document.write_text(typed)
+    assert results_report.check([document, readme], results) == ["stale in RESULTS.md: native-league"]
+    # README's table is generated too: a learned result changed under it is caught there.
+    learned = results / "benchmark" / "learned.json"
+    doc = json.loads(learned.read_text())
+    doc["summary"]["hunt-v1"]["mappo-escaper"]["iqm"] = 0.25
+    learned.write_text(json.dumps(doc))
+    assert "stale in README.md: front-page-benchmark" in results_report.check([document, readme], results)
+
+
+def test_a_table_without_a_block_in_any_document_is_reported(copied):
+    (document, readme), results = copied
+    assert results_report.check([document], results) == ["no block for: front-page-benchmark"]
+
+
+def test_unclosed_or_unknown_blocks_are_refused_with_status_2(copied, capsys):
+    (document, _), results = copied
+    text = document.read_text()
+    document.write_text(text.replace("<!-- end generated -->", "", 1))
+    assert results_report.main(["--check", "--results", str(results), "--out", str(document)]) == 2
+    assert "no <!-- end generated -->" in capsys.readouterr().err
+    document.write_text(text.replace("<!-- generated: matrix -->", "<!-- generated: no-such-table -->"))
+    assert results_report.main(["--results", str(results), "--out", str(document)]) == 2
+    assert "no-such-table" in capsys.readouterr().err

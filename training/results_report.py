@@ -1,0 +1,386 @@
+#!/usr/bin/env python3
+"""The tables of RESULTS.md (and README's benchmark table), generated from the JSON in results/.
+
+    python training/results_report.py             # rewrite every generated table of RESULTS.md
+    python training/results_report.py --check     # exit 1 naming the stale tables; writes nothing
+    python training/results_report.py --figures   # also redraw the figures made from committed JSON
+
+RESULTS.md keeps its prose by hand. Every table made from results sits between
+``<!-- generated: NAME -->`` and ``<!-- end generated -->``; this script owns the text in
+between and rewrites it with the function registered under NAME, from the JSON of ``--results``
+(default ``results/``): evaluate.py's ``results.json`` and ``matrix/matrix.json``, the leagues'
+``league.json``, seeds.py's ``seeds.json``, the training runs' summaries and the benchmark's
+``baselines.json`` / ``learned.json``. Each function formats with the helpers of the script that
+wrote its JSON, so a table here reads exactly as that script prints it.
+
+``--check`` is what the test suite runs: a result changed without its table, or a table edited
+by hand, is reported on one line with the names of the blocks that differ. Bad markers or a
+missing results file exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import yaml  # noqa: E402
+
+import benchmark_report  # noqa: E402
+import evaluate  # noqa: E402
+import seeds  # noqa: E402
+import selfplay  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BEGIN = re.compile(r"^<!-- generated: ([a-z0-9-]+) -->\n", re.M)
+END = "<!-- end generated -->"
+#: The documents with generated blocks: RESULTS.md, and README's front-page benchmark table.
+DOCUMENTS = [ROOT / "RESULTS.md", ROOT / "README.md"]
+
+
+class ReportError(ValueError):
+    """RESULTS.md's markers or the results cannot be read: one line on stderr, status 2."""
+
+
+@dataclass
+class Results:
+    """The results folder; each file parsed once however many tables read it."""
+
+    root: Path
+    _cache: dict = field(default_factory=dict)
+
+    def json(self, relative: str) -> dict:
+        if relative not in self._cache:
+            self._cache[relative] = json.loads((self.root / relative).read_text())
+        return self._cache[relative]
+
+    def yaml(self, relative: str) -> dict:
+        if relative not in self._cache:
+            self._cache[relative] = yaml.safe_load((self.root / relative).read_text())
+        return self._cache[relative]
+
+
+#: NAME → the function that renders block NAME from the results.
+BLOCKS: dict[str, Callable[[Results], str]] = {}
+
+
+def block(name: str):
+    """Registers a table function under the marker name RESULTS.md uses for it."""
+
+    def register(render: Callable[[Results], str]) -> Callable[[Results], str]:
+        BLOCKS[name] = render
+        return render
+
+    return register
+
+
+# --- the tables ----------------------------------------------------------------------------------
+
+
+def minutes(seconds: float) -> str:
+    """Wall times as RESULTS.md states them (one decimal of a minute)."""
+    return f"{seconds / 60:.1f} min"
+
+
+def millions(count: float) -> str:
+    """Step counts in millions, as the training tables state them."""
+    return f"{count / 1e6:.1f} M"
+
+
+def percent(share: float) -> str:
+    """A share as RESULTS.md's prose tables write it, with a space before the sign."""
+    return f"{100 * share:.1f} %"
+
+
+@block("training-runs")
+def training_runs(results: Results) -> str:
+    """The three committed models' budgets, wall times and sizes, from their run folders
+    (train.py's ``train_summary.json``, imitate.py's ``imitation.json``, both ``config.yaml``)."""
+    lines = ["| run | budget | wall time | timesteps (agent-steps) | throughput |", "|---|---|---|---|---|"]
+    for name in ("escape_ppo", "wolves_bc_vel_b", "wolves_ft"):
+        folder = f"models/{name}"
+        if (results.root / folder / "imitation.json").is_file():
+            lines.append(imitation_row(name, results.json(f"{folder}/imitation.json")))
+        else:
+            lines.append(ppo_row(name, results.yaml(f"{folder}/config.yaml"), results.json(f"{folder}/train_summary.json")))
+    return "\n".join(lines)
+
+
+def imitation_row(name: str, imitation: dict) -> str:
+    """Imitation runs on imitate.py's defaults; its size is the DAgger data set it ended with."""
+    last = imitation["rounds"][-1]
+    return f"| `{name}` (BC + {len(imitation['rounds'])} DAgger rounds) | defaults | {minutes(last['elapsed_s'])} | {last['samples'] / 1e6:.2f} M labelled states | |"
+
+
+def ppo_row(name: str, config: dict, summary: dict) -> str:
+    """A PPO run's budget is whichever of its two limits stopped it; a wolf slot is one agent,
+    so its timesteps are world steps times the pack."""
+    per_world = round(summary["timesteps"] / summary["world_steps"])
+    worlds = f"{config['num_envs']} worlds × {per_world} {config['side']}" if per_world > 1 else f"{config['side']}, {config['num_envs']} worlds"
+    what = "PPO fine-tuning" if config.get("init_from") else "PPO"
+    if summary["stopped_by_time_limit"]:
+        limit = re.search(r"--time-limit (\S+)", config["command"])
+        budget, wall = f"`--time-limit {limit.group(1)}`", f"{minutes(summary['wall_s'])} (stopped by the limit)"
+    else:
+        budget, wall = f"{config['timesteps'] / 1e6:.0f} M timesteps", minutes(summary["wall_s"])
+    steps = millions(summary["timesteps"]) + (f" ({millions(summary['world_steps'])} world steps)" if per_world > 1 else "")
+    return f"| `{name}` ({what}, {worlds}) | {budget} | {wall} | {steps} | {summary['timesteps_per_s'] / 1e3:.1f} k/s |"
+
+
+@block("evaluation")
+def evaluation(results: Results) -> str:
+    """evaluate.py's table of ``results.json`` as evaluate.py prints it."""
+    return evaluate.markdown(results.json("results.json")["rows"])
+
+
+@block("league")
+def league(results: Results) -> str:
+    """The SB3 league's table, as selfplay.py writes league.md."""
+    return selfplay.league_table(results.json("league/league.json"))
+
+
+def trained_by_sb3(policy: str) -> bool:
+    """A law, or a model of the SB3 era (``ppo:``, ``imitation:``) — the policies the section on
+    the SB3 leagues compares; the native trainer's (``mappo:``) are discussed in (f)."""
+    return ":" not in policy or policy.split(":", 1)[0] in ("ppo", "imitation")
+
+
+@block("matrix")
+def matrix(results: Results) -> str:
+    """The cross-play table of the laws and SB3 models, cut from ``matrix.json`` (which holds the
+    native models as well, same cells to the episode), worst cases over that cut."""
+    doc = results.json("matrix/matrix.json")
+    wolves = [w for w in doc["wolves"] if trained_by_sb3(w)]
+    targets = [t for t in doc["targets"] if trained_by_sb3(t)]
+    cells = [c for c in doc["cells"] if c["wolves"] in wolves and c["targets"] in targets]
+    cut = {**doc, "wolves": wolves, "targets": targets, "cells": cells, "robustness": evaluate.robustness(cells, wolves, targets)}
+    return evaluate.matrix_summary_markdown(cut)
+
+
+#: How RESULTS.md names seeds.py's opponents (a name not here stands as it is).
+OPPONENT_LABELS = {
+    "ppo:escape_ppo": "ppo:escape_ppo (the committed learned escaper)",
+    "ppo:league/targets_g01": "SB3 league targets_g01",
+    "ppo:league/targets_g03": "SB3 league targets_g03",
+    "ppo:league/targets_g05": "SB3 league targets_g05",
+    "mappo:targets_g01": "native league targets_g01",
+    "mappo:targets_g03": "native league targets_g03",
+    "mappo:native_wolves_mappo_s0": "MAPPO wolves of (e), seed 0",
+    "mappo:wolves_pool_s0": "pool-trained wolves of (g), seed 0",
+}
+
+
+def bold(text: str, on: bool) -> str:
+    """Emphasis the prose relies on (the result a section is about), kept in a generated table."""
+    return f"**{text}**" if on else text
+
+
+def seeds_table(doc: dict, header: str, emphasised: tuple[str, ...]) -> str:
+    """seeds.py's table of ``seeds.json`` with RESULTS.md's names: the first opponent is the one
+    the seeds trained against, and its ``emphasised`` cells ("skill", "collisions") are bold."""
+    lines = [header, "|---|---|---|---|---|"]
+    for k, (name, entry) in enumerate(doc["opponents"].items()):
+        label = OPPONENT_LABELS.get(name, name) + (" (trained against)" if k == 0 else "")
+        step = seeds.median_capture_step(entry["rows"])
+        skill = bold(seeds.iqm_cell(entry["skill"]), k == 0 and "skill" in emphasised)
+        collisions = bold(seeds.iqm_cell(entry["collision_rate"]), k == 0 and "collisions" in emphasised)
+        lines.append(f"| {label} | {skill} | {seeds.range_cell(entry['skill'])} | {collisions} | {'—' if step is None else f'{step:g}'} |")
+    return "\n".join(lines)
+
+
+@block("wolves-mappo-seeds")
+def wolves_mappo_seeds(results: Results) -> str:
+    """(e): five seeds of native MAPPO wolves."""
+    header = "| target | captured: IQM [95 % CI] | median (range) | wolf collisions: IQM [95 % CI] | median capture step |"
+    return seeds_table(results.json("learned/wolves_mappo/seeds.json"), header, ("skill", "collisions"))
+
+
+@block("targets-mappo-seeds")
+def targets_mappo_seeds(results: Results) -> str:
+    """(i): five seeds of the native escaper."""
+    header = "| wolves | survival IQM [95 % CI] | median (range) | wolf collisions IQM [95 % CI] | median capture step |"
+    return seeds_table(results.json("learned/targets_mappo/seeds.json"), header, ("skill",))
+
+
+#: Seed 0 of each algorithm shared the cores with other work, so its speed is not comparable.
+SPEED_EXCLUDED_SEEDS = {0}
+
+
+def training_speeds(results: Results, folder: str) -> dict[int, float]:
+    """Training seed → agent-steps per second, for the runs of ``folder``'s seeds.json whose
+    speed is comparable."""
+    speeds = {}
+    for run in results.json(f"{folder}/seeds.json")["runs"]:
+        name = Path(run).name
+        seed = results.yaml(f"{folder}/{name}/config.yaml")["seed"]
+        if seed not in SPEED_EXCLUDED_SEEDS:
+            speeds[seed] = results.json(f"{folder}/{name}/summary.json")["this_invocation"]["agent_steps_per_s"]
+    return speeds
+
+
+@block("ippo-vs-mappo")
+def ippo_vs_mappo(results: Results) -> str:
+    """(h): the two critics at a fixed budget, speed and skill side by side."""
+    speeds = {algo: training_speeds(results, f"learned/ippo_vs_mappo/{algo}") for algo in ("ippo", "mappo")}
+    timed = sorted(set().union(*speeds.values()))
+    lines = [f"| algorithm | agent-steps/s (seeds {timed[0]}–{timed[-1]}) | against escape: captured IQM [95 % CI] | collisions IQM [95 % CI] | against escape_ppo: captured |",
+             "|---|---|---|---|---|"]
+    for algo, per_seed in speeds.items():
+        opponents = results.json(f"learned/ippo_vs_mappo/{algo}/seeds.json")["opponents"]
+        lines.append(f"| {algo.upper()} | {min(per_seed.values()) / 1e3:.0f}–{max(per_seed.values()) / 1e3:.0f} k | {seeds.iqm_cell(opponents['escape']['skill'])} "
+                     f"| {seeds.iqm_cell(opponents['escape']['collision_rate'])} | {seeds.iqm_cell(opponents['ppo:escape_ppo']['skill'])} |")
+    return "\n".join(lines)
+
+
+@block("native-league")
+def native_league(results: Results) -> str:
+    """(f): the league on the native trainer, whose generations count agent-steps."""
+    return selfplay.league_table(results.json("league_native/league.json"), steps_header="agent-steps")
+
+
+@block("environment-share")
+def environment_share(results: Results) -> str:
+    """Where the SB3 runs' training time went, from train.py's ``train_summary.json``."""
+    lines = ["| run | training wall time | inside the environment | rollout collection (env + policy inference + SB3) | gradient updates |", "|---|---|---|---|---|"]
+    for name in ("escape_ppo", "wolves_ft"):
+        s = results.json(f"models/{name}/train_summary.json")
+        worlds = results.yaml(f"models/{name}/config.yaml")["num_envs"]
+        slots = worlds * round(s["timesteps"] / s["world_steps"])
+        total = s["training_s"]
+        lines.append(f"| `{name}` ({worlds} worlds, {slots} slots) | {total:.0f} s | {s['env_s']:.0f} s (**{percent(s['env_share_of_training'])}**) "
+                     f"| {s['collect_s']:.0f} s ({percent(s['collect_s'] / total)}) | {s['update_s']:.0f} s ({percent(s['update_s'] / total)}) |")
+    return "\n".join(lines)
+
+
+@block("benchmark")
+def benchmark(results: Results) -> str:
+    """The benchmark's per-task table of every baseline, as benchmark_report.py writes it."""
+    baselines = results.json("benchmark/baselines.json")
+    learned_file = results.root / "benchmark" / "learned.json"
+    learned = results.json("benchmark/learned.json") if learned_file.is_file() else {}
+    return benchmark_report.tables_markdown(benchmark_report.collect(baselines, learned), heading="###")
+
+
+@block("front-page-benchmark")
+def front_page_benchmark(results: Results) -> str:
+    """README's short benchmark table: per task the best law and the best learner of each side."""
+    baselines = results.json("benchmark/baselines.json")
+    learned_file = results.root / "benchmark" / "learned.json"
+    learned = results.json("benchmark/learned.json") if learned_file.is_file() else {}
+    return benchmark_report.front_page_markdown(benchmark_report.collect(baselines, learned))
+
+
+# --- the figures ---------------------------------------------------------------------------------
+
+
+def figures(results: Results) -> list[Path]:
+    """Redraws the figures of RESULTS.md that a script draws from committed JSON alone, in place;
+    returns their paths. (Trajectories need the simulator, the SB3 runs' learning curves their
+    uncommitted progress.csv, and the SB3 leagues' curves an older progress.csv layout.)"""
+    root = results.root
+    rows = results.json("results.json")["rows"]
+    evaluate.plot(rows, root / "figures")
+    evaluate.matrix_plot(results.json("matrix/matrix.json"), root / "matrix" / "matrix.png")
+    selfplay.league_curves(root / "league_native", results.json("league_native/league.json"))
+    drawn = [root / "figures" / "capture_rates.png", root / "figures" / "capture_times.png", root / "matrix" / "matrix.png", root / "league_native" / "league_curves.png"]
+    for folder, axis in (("learned/wolves_mappo", "minutes"), ("learned/wolves_pool", "minutes"), ("learned/targets_mappo", "minutes"),
+                         ("learned/ippo_vs_mappo/ippo", "steps"), ("learned/ippo_vs_mappo/mappo", "steps")):
+        doc = results.json(f"{folder}/seeds.json")
+        runs = [root / folder / Path(run).name for run in doc["runs"]]
+        seeds.curves(root / folder, runs, doc["side"], axis, opponent=next(iter(doc["opponents"])))
+        drawn.append(root / folder / "curves.png")
+    return drawn
+
+
+# --- the document --------------------------------------------------------------------------------
+
+
+def blocks_of(text: str) -> list[tuple[str, int, int]]:
+    """(name, start, end) of every generated block's body: the text between its two markers."""
+    found = []
+    for m in BEGIN.finditer(text):
+        end = text.find(END, m.end())
+        following = BEGIN.search(text, m.end())
+        if end < 0 or (following is not None and following.start() < end):
+            raise ReportError(f"block {m.group(1)}: no {END} before the next block or the end")
+        found.append((m.group(1), m.end(), end))
+    return found
+
+
+def render_block(name: str, results: Results) -> str:
+    """A block's body: the table with a blank line either side, so that the markers never touch it."""
+    if name not in BLOCKS:
+        raise ReportError(f"block {name}: no such table (known: {', '.join(BLOCKS)})")
+    try:
+        return "\n" + BLOCKS[name](results).strip("\n") + "\n\n"
+    except (OSError, KeyError, ValueError) as e:
+        raise ReportError(f"block {name}: cannot render from {results.root}: {type(e).__name__}: {e}") from None
+
+
+def regenerate(text: str, results: Results) -> tuple[str, list[str]]:
+    """The document with every block rewritten, and the names of the blocks that changed."""
+    out, stale, done = [], [], 0
+    for name, start, end in blocks_of(text):
+        body = render_block(name, results)
+        if body != text[start:end]:
+            stale.append(name)
+        out += [text[done:start], body]
+        done = end
+    out.append(text[done:])
+    return "".join(out), stale
+
+
+def check(documents: Path | list[Path], results: Path) -> list[str]:
+    """The problems ``--check`` reports: each document's stale blocks, and tables that have no
+    block in any of the documents."""
+    documents = [documents] if isinstance(documents, Path) else documents
+    problems, placed = [], set()
+    for document in documents:
+        text = document.read_text()
+        _, stale = regenerate(text, Results(results))
+        if stale:
+            problems.append(f"stale in {document.name}: {', '.join(stale)}")
+        placed |= {name for name, _, _ in blocks_of(text)}
+    missing = sorted(set(BLOCKS) - placed)
+    if missing:
+        problems.append(f"no block for: {', '.join(missing)}")
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="results_report.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--results", type=Path, default=ROOT / "results", help="the results folder the tables are made from (default: results/)")
+    p.add_argument("--out", type=Path, nargs="+", default=DOCUMENTS, metavar="FILE",
+                   help="the documents whose generated blocks are rewritten (default: RESULTS.md and README.md)")
+    p.add_argument("--check", action="store_true", help="write nothing; exit 1 if any generated block differs from what the results give")
+    p.add_argument("--figures", action="store_true", help="also redraw, in --results, the figures drawn from committed JSON")
+    args = p.parse_args(argv)
+    try:
+        if args.check:
+            problems = check(args.out, args.results)
+            if problems:
+                print(f"results_report.py: the documents do not match {args.results}: {'; '.join(problems)} (rerun python training/results_report.py)", file=sys.stderr)
+                return 1
+            return 0
+        rewritten = {document: regenerate(document.read_text(), Results(args.results)) for document in args.out}
+    except ReportError as e:
+        print(f"results_report.py: error: {e}", file=sys.stderr)
+        return 2
+    for document, (text, stale) in rewritten.items():
+        if stale:
+            document.write_text(text)
+        print(f"{document}: {len(stale)} of {len(blocks_of(text))} generated blocks rewritten{': ' + ', '.join(stale) if stale else ''}", file=sys.stderr)
+    if args.figures:
+        for path in figures(Results(args.results)):
+            print(f"drew {path}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
