@@ -34,6 +34,7 @@ import yaml  # noqa: E402
 
 import benchmark_report  # noqa: E402
 import evaluate  # noqa: E402
+import exploitability  # noqa: E402
 import seeds  # noqa: E402
 import selfplay  # noqa: E402
 
@@ -265,6 +266,12 @@ def benchmark(results: Results) -> str:
     learned_file = results.root / "benchmark" / "learned.json"
     learned = results.json("benchmark/learned.json") if learned_file.is_file() else {}
     return benchmark_report.tables_markdown(benchmark_report.collect(baselines, learned), heading="###")
+
+
+@block("exploitability")
+def exploitability_table(results: Results) -> str:
+    """Best-response escapers against each law and the best learned wolves, as exploitability.py writes it."""
+    return exploitability.table(results.json("benchmark/exploitability/exploitability.json"))
 
 
 @block("front-page-benchmark")

@@ -19,7 +19,7 @@ use std::sync::{Arc, Mutex};
 use crate::config::{ActionMode, Params};
 use crate::crew::Crew;
 use crate::error::{Error, Result};
-use crate::math::{unit, wrap, Vec2};
+use crate::math::{atan2, unit, wrap, Vec2};
 use crate::observe::{target_dim, wolf_dim, Observer};
 use crate::policies::saturator::saturate;
 use crate::policies::Command;
@@ -976,7 +976,7 @@ pub fn decode(mode: ActionMode, theta: f64, a0: f32, a1: f32, v_max: f64, omega_
         ActionMode::Velocity => {
             let a = Vec2::new(a0, a1);
             let r = a.norm();
-            let theta_d = if r > 0.0 { wrap(theta + a1.atan2(a0)) } else { theta };
+            let theta_d = if r > 0.0 { wrap(theta + atan2(a1, a0)) } else { theta };
             saturate(r.min(1.0) * v_max, theta_d, theta, v_max, omega_max, ts)
         }
     }

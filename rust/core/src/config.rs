@@ -523,7 +523,7 @@ impl EscapeParams {
     /// The fatigue curve at step `t` for a target first seen at `t_seen` (before the v_max cap).
     pub fn fatigue_speed(&self, t_seen: u32, t: u32) -> f64 {
         let x = self.fatigue_slope * (self.fatigue_delay + t_seen as f64 - t as f64);
-        self.fatigue_base * (2.0 - 1.0 / (1.0 + x.exp()))
+        self.fatigue_base * (2.0 - 1.0 / (1.0 + crate::math::exp(x)))
     }
 }
 

@@ -12,6 +12,7 @@ pub mod error;
 pub mod geometry;
 pub mod limits;
 pub mod math;
+pub mod normal;
 pub mod observe;
 pub mod policies;
 pub mod render;

@@ -12,6 +12,75 @@ pub type Point2 = na::Point2<f64>;
 
 pub use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+// The transcendental functions of the world, the laws and the observations come from the `libm`
+// crate (a pure-Rust port of musl's), never from std's `f64` methods: those call the platform's
+// C library, and glibc, macOS and Windows round differently in the last bit on a fraction of
+// arguments (glibc's sincos, atan2 and pow differ from correctly rounded on 0.28 %, 0.09 % and
+// 0.08 % of them). One bit is enough for two trajectories to drift apart, and a benchmark's
+// episodes must be the same on every machine (docs/tasks.md, "Versions"). `sqrt` and the
+// arithmetic operators are exactly rounded by IEEE 754 on every platform and stay as they are.
+// `tests::no_platform_transcendentals_outside_tests` keeps the rest of the crate to these.
+
+/// sin(x), the same bits on every platform.
+#[inline]
+pub fn sin(x: f64) -> f64 {
+    libm::sin(x)
+}
+
+/// cos(x), the same bits on every platform.
+#[inline]
+pub fn cos(x: f64) -> f64 {
+    libm::cos(x)
+}
+
+/// (sin x, cos x), the same bits on every platform (and as [`sin`] and [`cos`] give).
+#[inline]
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    libm::sincos(x)
+}
+
+/// atan2(y, x) in (−π, π], the same bits on every platform.
+#[inline]
+pub fn atan2(y: f64, x: f64) -> f64 {
+    libm::atan2(y, x)
+}
+
+/// atan(x), the same bits on every platform.
+#[inline]
+pub fn atan(x: f64) -> f64 {
+    libm::atan(x)
+}
+
+/// asin(x), the same bits on every platform.
+#[inline]
+pub fn asin(x: f64) -> f64 {
+    libm::asin(x)
+}
+
+/// acos(x), the same bits on every platform.
+#[inline]
+pub fn acos(x: f64) -> f64 {
+    libm::acos(x)
+}
+
+/// x^y, the same bits on every platform.
+#[inline]
+pub fn pow(x: f64, y: f64) -> f64 {
+    libm::pow(x, y)
+}
+
+/// e^x, the same bits on every platform.
+#[inline]
+pub fn exp(x: f64) -> f64 {
+    libm::exp(x)
+}
+
+/// The natural logarithm, the same bits on every platform.
+#[inline]
+pub fn ln(x: f64) -> f64 {
+    libm::log(x)
+}
+
 /// Maps an angle into [0, 2π) (SPEC's `wrap`).
 #[inline]
 pub fn wrap(a: f64) -> f64 {
@@ -72,13 +141,13 @@ pub fn wrap_pi(a: f64) -> f64 {
 /// Direction of a vector as an angle in [0, 2π); the zero vector has direction 0.
 #[inline]
 pub fn angle_of(v: Vec2) -> f64 {
-    wrap(v.y.atan2(v.x))
+    wrap(atan2(v.y, v.x))
 }
 
 /// Unit vector at angle `a`.
 #[inline]
 pub fn unit(a: f64) -> Vec2 {
-    let (s, c) = a.sin_cos();
+    let (s, c) = sin_cos(a);
     Vec2::new(c, s)
 }
 
@@ -114,6 +183,71 @@ pub fn prefetch_slice<T>(s: &[T]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The source of this crate outside its tests, with every `#[cfg(test)]` item cut out.
+    fn non_test_source(text: &str) -> String {
+        let mut out = String::new();
+        let mut lines = text.lines();
+        while let Some(line) = lines.next() {
+            if line.trim() != "#[cfg(test)]" {
+                out.push_str(line);
+                out.push('\n');
+                continue;
+            }
+            // Skip the item the attribute applies to: up to the brace that closes its first one.
+            let mut depth = 0i64;
+            let mut opened = false;
+            for item_line in lines.by_ref() {
+                depth += item_line.matches('{').count() as i64 - item_line.matches('}').count() as i64;
+                opened |= item_line.contains('{');
+                if opened && depth <= 0 {
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn no_platform_transcendentals_outside_tests() {
+        // std's f64 methods and rand_distr's normals call the platform's C library (see the
+        // comment above `sin`): outside this module and the tests, the crate uses the libm
+        // wrappers here and `crate::normal`.
+        let calls = [".sin(", ".cos(", ".sin_cos(", ".tan(", ".atan2(", ".atan(", ".asin(", ".acos(", ".sinh(", ".cosh(", ".tanh(", ".powf(", ".exp(", ".exp2(", ".exp_m1(",
+                     ".ln(", ".ln_1p(", ".log(", ".log2(", ".log10(", ".hypot(", ".cbrt(", "StandardNormal", "Normal::new", "Exp1"];
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut files = vec![root.clone()];
+        let mut found = Vec::new();
+        let mut checked = 0;
+        while let Some(path) = files.pop() {
+            if path.is_dir() {
+                files.extend(std::fs::read_dir(&path).unwrap().map(|e| e.unwrap().path()));
+                continue;
+            }
+            let name = path.strip_prefix(&root).unwrap().to_string_lossy().into_owned();
+            if path.extension().is_none_or(|e| e != "rs") || name == "math.rs" || name == "normal.rs" {
+                continue;
+            }
+            checked += 1;
+            for line in non_test_source(&std::fs::read_to_string(&path).unwrap()).lines() {
+                let code = line.split("//").next().unwrap();
+                for call in calls {
+                    if code.contains(call) {
+                        found.push(format!("{name}: {call} in `{}`", line.trim()));
+                    }
+                }
+            }
+        }
+        assert!(checked > 20, "only {checked} files checked");
+        assert!(found.is_empty(), "platform transcendentals outside the tests:\n{}", found.join("\n"));
+    }
+
+    #[test]
+    fn the_test_cutter_keeps_code_after_a_test_only_function() {
+        let text = "fn a() {}\n#[cfg(test)]\nfn b() {\n    x.sin();\n}\nfn c() { y.cos() }\n";
+        let kept = non_test_source(text);
+        assert!(kept.contains("fn a") && kept.contains("fn c") && !kept.contains("fn b") && !kept.contains("x.sin"), "{kept}");
+    }
 
     #[test]
     fn wrap_maps_into_half_open_turn() {

@@ -26,8 +26,6 @@
 //! formulas a tenth of that. The tests check them against parry's `Ball`, `Segment` and `Aabb`
 //! casts, which stay the reference.
 
-use rand::Rng;
-use rand_distr::StandardNormal;
 
 use crate::config::Params;
 use crate::math::{cross, Vec2};
@@ -193,7 +191,7 @@ fn add_lidar_noise(w: &World, agent: usize, readings: &mut [f32]) {
     }
     let mut rng = w.sensing_rng(agent);
     for r in readings {
-        let z: f64 = rng.sample(StandardNormal);
+        let z = crate::normal::standard_normal(&mut rng);
         *r = (f64::from(*r) + sigma * z).clamp(0.0, 1.0) as f32;
     }
 }
@@ -254,7 +252,7 @@ fn ray_turn(rays: usize) -> (f64, f64) {
     if rays == 0 {
         return (0.0, 1.0);
     }
-    (std::f64::consts::TAU / rays as f64).sin_cos()
+    crate::math::sin_cos(std::f64::consts::TAU / rays as f64)
 }
 
 /// The lidar's rays as columns — direction x, direction y, nearest hit so far (metres) —

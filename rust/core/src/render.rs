@@ -11,6 +11,8 @@
 //! targets red), and the step count in the top-left corner.
 
 use serde::Deserialize;
+
+use crate::math::{cos, sin, sin_cos};
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
 
 /// An RGB colour.
@@ -71,7 +73,7 @@ impl SceneObstacle {
 
     /// World vertices at the current pose.
     pub fn vertices(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
-        let (s, c) = self.angle.sin_cos();
+        let (s, c) = sin_cos(self.angle);
         self.local.iter().map(move |v| [self.center[0] + c * v[0] - s * v[1], self.center[1] + s * v[0] + c * v[1]])
     }
 }
@@ -233,7 +235,7 @@ fn rgba_to_rgb(rgba: &[u8]) -> Vec<u8> {
 
 /// The triangle's centroid for pose `p` and body height `h` — where a test finds the colour.
 pub fn body_centroid(p: [f64; 3], h: f64) -> [f64; 2] {
-    [p[0] + h / 3.0 * p[2].cos(), p[1] + h / 3.0 * p[2].sin()]
+    [p[0] + h / 3.0 * cos(p[2]), p[1] + h / 3.0 * sin(p[2])]
 }
 
 fn all_poses(scene: &Scene) -> impl Iterator<Item = [f64; 3]> + '_ {
@@ -392,7 +394,7 @@ impl Canvas<'_> {
     /// SPEC §1.2's isosceles body scaled to height = base = `h`: apex ahead, base through the
     /// pose point.
     fn triangle(&mut self, [x, y, th]: [f64; 3], h: f64, c: Rgb, hollow: bool) {
-        let (s, co) = th.sin_cos();
+        let (s, co) = sin_cos(th);
         let apex = [x + h * co, y + h * s];
         let left = [x - h / 2.0 * s, y + h / 2.0 * co];
         let right = [x + h / 2.0 * s, y - h / 2.0 * co];

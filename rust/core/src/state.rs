@@ -15,6 +15,7 @@
 //! params leaves the remaining slots empty; one with more does not fit (an error naming both).
 
 use crate::config::Params;
+use crate::math::{cos, sin};
 use crate::error::{Error, Result};
 use crate::world::World;
 
@@ -43,20 +44,20 @@ pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
     };
     let wolf = &params.agents.wolf;
     for a in &w.wolves {
-        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, a.theta.cos(), a.theta.sin(), a.v / wolf.v_max, a.omega / wolf.omega_max] {
+        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, cos(a.theta), sin(a.theta), a.v / wolf.v_max, a.omega / wolf.omega_max] {
             put(x);
         }
     }
     let target = &params.agents.target;
     for (a, &ended) in w.targets.iter().zip(&w.target_captured) {
-        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, a.theta.cos(), a.theta.sin(), a.v / target.v_max, a.omega / target.omega_max, f64::from(u8::from(ended))] {
+        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, cos(a.theta), sin(a.theta), a.v / target.v_max, a.omega / target.omega_max, f64::from(u8::from(ended))] {
             put(x);
         }
     }
     for s in 0..slots {
         match w.obstacles.get(s) {
             Some(o) => {
-                for x in [1.0, (o.center.x - cx) / hx, (o.center.y - cy) / hy, o.angle.cos(), o.angle.sin()] {
+                for x in [1.0, (o.center.x - cx) / hx, (o.center.y - cy) / hy, cos(o.angle), sin(o.angle)] {
                     put(x);
                 }
             }

@@ -50,7 +50,7 @@ use arrayvec::ArrayVec;
 
 use super::{DangerMemory, Snapshot};
 use crate::config::{AvoidanceParams, KappaRow};
-use crate::math::{angle_of, wrap, Vec2, FRAC_PI_2, PI, TAU};
+use crate::math::{acos, angle_of, wrap, Vec2, FRAC_PI_2, PI, TAU};
 use crate::policies::saturator::{next_heading, saturate};
 use crate::world::{Obstacle, ObstacleKind};
 
@@ -125,7 +125,7 @@ pub fn collect_walls(p: Vec2, border: &[f64; 4], range: f64, items: &mut Items) 
         if d < range {
             // Outside the arena (never, for a feasible agent) counts as touching.
             let d = d.max(0.0);
-            items.push(Item { kind: ItemKind::Wall, psi, delta: (d / range).acos(), dist: d });
+            items.push(Item { kind: ItemKind::Wall, psi, delta: acos(d / range), dist: d });
         }
     }
 }

@@ -31,7 +31,7 @@ use pathfinding::matrix::Matrix;
 
 use super::{Snapshot, WolfMemory};
 use crate::geometry::{edges, polygon_closest_point};
-use crate::math::{angle_of, cross, Point2, Vec2};
+use crate::math::{angle_of, cos, cross, sin, Point2, Vec2};
 use crate::world::Obstacle;
 
 /// N hunting points on the circle of radius `r_h` around `target`, point k at angle 2πk/N.
@@ -39,7 +39,7 @@ pub fn hunting_points(target: Vec2, n: usize, r_h: f64) -> Vec<Vec2> {
     (0..n)
         .map(|k| {
             let a = std::f64::consts::TAU * k as f64 / n as f64;
-            target + r_h * Vec2::new(a.cos(), a.sin())
+            target + r_h * Vec2::new(cos(a), sin(a))
         })
         .collect()
 }
@@ -205,7 +205,7 @@ pub fn cell(i: usize, wolves: &[Vec2], obstacles: &[Obstacle], border: [f64; 4],
         let mut poly: Vec<Vec2> = (0..disc_sides)
             .map(|k| {
                 let a = std::f64::consts::TAU * k as f64 / disc_sides as f64;
-                p + sense * Vec2::new(a.cos(), a.sin())
+                p + sense * Vec2::new(cos(a), sin(a))
             })
             .collect();
         let mut used = Vec::new();

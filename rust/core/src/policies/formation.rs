@@ -46,7 +46,7 @@ use pathfinding::undirected::connected_components::connected_components;
 
 use super::Snapshot;
 use crate::config::FormationParams;
-use crate::math::{angle_of, unit, Vec2};
+use crate::math::{angle_of, cos, sin, unit, Vec2};
 use crate::world::Obstacle;
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
@@ -116,12 +116,12 @@ pub fn plan_path(start: Vec2, goal: Vec2, nodes: &[Disc], clearance: f64, ring_p
     // (r + clearance) / cos(π/K), a hair beyond, so that chords between neighbours clear the
     // inflated disc; points inside another inflated disc are useless and dropped.
     let k = ring_points.max(3);
-    let stretch = 1.0 / (std::f64::consts::PI / k as f64).cos() * (1.0 + 1e-9);
+    let stretch = 1.0 / cos(std::f64::consts::PI / k as f64) * (1.0 + 1e-9);
     let mut points = vec![start, goal];
     for d in &discs {
         for m in 0..k {
             let a = std::f64::consts::TAU * m as f64 / k as f64;
-            let p = d.center + (d.radius + clearance) * stretch * Vec2::new(a.cos(), a.sin());
+            let p = d.center + (d.radius + clearance) * stretch * Vec2::new(cos(a), sin(a));
             if !discs.iter().any(|o| (p - o.center).norm() < o.radius + clearance) {
                 points.push(p);
             }
@@ -149,7 +149,7 @@ pub fn bump(x: f64, delta: f64) -> f64 {
     if x < delta {
         1.0 // x < 0 included
     } else if x <= 1.0 {
-        0.5 * (1.0 + (std::f64::consts::PI * (x - delta) / (1.0 - delta)).cos())
+        0.5 * (1.0 + cos(std::f64::consts::PI * (x - delta) / (1.0 - delta)))
     } else {
         0.0
     }
@@ -228,7 +228,7 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut super::WolfMemory, row:
     let angle = std::f64::consts::TAU * i as f64 / n as f64;
     // A slot beyond a wall (the target against it) moves inside, along the wall: a wolf
     // driving at the wall only stalls in the feasibility filter.
-    let ring = q_r + f.radius * Vec2::new(angle.cos(), angle.sin());
+    let ring = q_r + f.radius * Vec2::new(cos(angle), sin(angle));
     // The margin never exceeds half the arena (a clearance wider than a small arena would make
     // an empty clamp range): then the slot sits on the arena's middle line.
     let (mx, my) = (f.clearance.min((x1 - x0) / 2.0), f.clearance.min((y1 - y0) / 2.0));

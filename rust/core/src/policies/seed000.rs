@@ -22,7 +22,7 @@
 use super::avoidance;
 use super::saturator::saturate;
 use super::{Command, Snapshot, WolfMemory};
-use crate::math::{angle_of, Vec2};
+use crate::math::{angle_of, pow, Vec2};
 
 /// The command of wolf `i` for this step. Marks in `row` (wolf i's row of the interaction
 /// matrix) every other wolf whose information the law used.
@@ -57,14 +57,14 @@ pub fn attraction(i: usize, snap: &Snapshot, last: Vec2, row: &mut [u8]) -> Vec2
     if snap.wolf_senses[i] {
         let to = snap.targets[target].pos - pi;
         let d = to.norm();
-        return if d > 0.0 { to * ((d - s.radius) / d.powf(s.tau1)) } else { Vec2::zeros() };
+        return if d > 0.0 { to * ((d - s.radius) / pow(d, s.tau1)) } else { Vec2::zeros() };
     }
     // Flags from the same snapshot: the nearest wolf that senses wolf i's target.
     if let Some(j) = nearest(i, snap, |j| snap.wolf_senses[j] && snap.wolf_target[j] == target) {
         row[j] = 1;
         let to = snap.wolves[j].pos - pi;
         let d = to.norm();
-        return if d > 0.0 { to * (s.varsigma * d.powf(s.tau2)) } else { Vec2::zeros() };
+        return if d > 0.0 { to * (s.varsigma * pow(d, s.tau2)) } else { Vec2::zeros() };
     }
     // Nothing sensed: the remembered direction at `lost_speed`; zero before any attraction.
     let n = last.norm();
@@ -128,7 +128,7 @@ pub fn repulsion(i: usize, snap: &Snapshot, nu1: Vec2, row: &mut [u8]) -> Vec2 {
         if d < rw {
             row[k] = 1;
             if d > 0.0 {
-                l += (pi - snap.wolves[k].pos) / d.powf(s.tau3);
+                l += (pi - snap.wolves[k].pos) / pow(d, s.tau3);
             }
         }
     }

@@ -22,7 +22,7 @@ use rand_chacha::ChaCha8Rng;
 use crate::config::Params;
 use crate::error::Result;
 use crate::geometry::{body_triangle, BodyFrame};
-use crate::math::Vec2;
+use crate::math::{sin_cos, Vec2};
 use crate::policies::Command;
 
 /// Pose and last command of one unicycle agent, plus its accumulated energy.
@@ -396,7 +396,7 @@ impl World {
         let (a, bodies, i) = if k < n { (&self.wolves[k], &self.wolf_bodies, k) } else { (&self.targets[k - n], &self.target_bodies, k - n) };
         match bodies.fwd_at(i, a) {
             Some(f) => (f.y, f.x),
-            None => a.theta.sin_cos(),
+            None => sin_cos(a.theta),
         }
     }
 

@@ -1,11 +1,11 @@
 //! Obstacles: circles and irregular star-shaped polygons, static or moving (SPEC §1.3).
 
 use rand::Rng;
-use rand_distr::{Distribution, Normal};
 
 use crate::config::ObstacleParams;
 use crate::geometry::{self, Extent};
-use crate::math::{angle_of, rem_euclid_tau, unit, Vec2, FRAC_PI_2, TAU};
+use crate::normal::standard_normal;
+use crate::math::{angle_of, asin, rem_euclid_tau, sin_cos, unit, Vec2, FRAC_PI_2, TAU};
 
 /// What an obstacle is, for the avoidance law's κ table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,7 +80,7 @@ impl Obstacle {
 
     /// Re-computes world vertices from centre and angle.
     fn place(&mut self) {
-        let (s, c) = self.angle.sin_cos();
+        let (s, c) = sin_cos(self.angle);
         for (w, l) in self.vertices.iter_mut().zip(&self.local) {
             *w = self.center + Vec2::new(c * l.x - s * l.y, s * l.x + c * l.y);
         }
@@ -109,8 +109,9 @@ impl Obstacle {
     pub(crate) fn advance_pose<R: Rng>(&mut self, rng: &mut R, p: &ObstacleParams, ts: f64, border: &[f64; 4]) {
         let turn = if p.rotation_max > 0.0 { rng.random_range(-p.rotation_max..=p.rotation_max) } else { 0.0 };
         let (vx, vy) = if p.speed_std > 0.0 {
-            let n = Normal::new(0.0, p.speed_std).expect("validated std");
-            (n.sample(rng), n.sample(rng))
+            // N(0, σ²) as rand_distr's Normal draws it: σ·z, x before y.
+            let vx = p.speed_std * standard_normal(rng);
+            (vx, p.speed_std * standard_normal(rng))
         } else {
             (0.0, 0.0)
         };
@@ -156,7 +157,7 @@ impl Obstacle {
             if d <= 0.0 {
                 return Some(Extent { psi: angle_of(self.center - p), delta: FRAC_PI_2, dist: 0.0 });
             }
-            Some(Extent { psi: angle_of(self.center - p), delta: (self.radius / dc).asin(), dist: d })
+            Some(Extent { psi: angle_of(self.center - p), delta: asin(self.radius / dc), dist: d })
         }
     }
 
