@@ -113,7 +113,8 @@ def main(argv: list[str] | None = None) -> int:
                     "episodes": args.episodes,
                     "first_seed": HELD_OUT_SEED,
                     "learners": {n: {"side": s, "algo": a} for n, s, a in LEARNERS},
-                    "command": "python training/task_baselines.py " + " ".join(sys.argv[1:] if argv is None else argv),
+                    # --reevaluate only recomputes what the runs' models score: not part of how the results were made
+                    "command": "python training/task_baselines.py " + " ".join(a for a in (sys.argv[1:] if argv is None else argv) if a != "--reevaluate"),
                     "bootstrap": "scipy.stats.bootstrap, percentile, 10,000 resamples, over the training seeds",
                     "summary": summarise(runs),
                     "runs": sorted(runs, key=lambda r: (TASK_ORDER.index(r["task"]), r["learner"], r["seed"])),
