@@ -259,13 +259,18 @@ def environment_share(results: Results) -> str:
     return "\n".join(lines)
 
 
+def benchmark_baselines(results: Results) -> dict:
+    """Every baseline of the benchmark per side, as benchmark_report.py collects them (the
+    learned ones only once learned.json exists)."""
+    learned_file = results.root / "benchmark" / "learned.json"
+    learned = results.json("benchmark/learned.json") if learned_file.is_file() else {}
+    return benchmark_report.collect(results.json("benchmark/baselines.json"), learned)
+
+
 @block("benchmark")
 def benchmark(results: Results) -> str:
     """The benchmark's per-task table of every baseline, as benchmark_report.py writes it."""
-    baselines = results.json("benchmark/baselines.json")
-    learned_file = results.root / "benchmark" / "learned.json"
-    learned = results.json("benchmark/learned.json") if learned_file.is_file() else {}
-    return benchmark_report.tables_markdown(benchmark_report.collect(baselines, learned), heading="###")
+    return benchmark_report.tables_markdown(benchmark_baselines(results), heading="###")
 
 
 @block("exploitability")
@@ -277,10 +282,7 @@ def exploitability_table(results: Results) -> str:
 @block("front-page-benchmark")
 def front_page_benchmark(results: Results) -> str:
     """README's short benchmark table: per task the best law and the best learner of each side."""
-    baselines = results.json("benchmark/baselines.json")
-    learned_file = results.root / "benchmark" / "learned.json"
-    learned = results.json("benchmark/learned.json") if learned_file.is_file() else {}
-    return benchmark_report.front_page_markdown(benchmark_report.collect(baselines, learned))
+    return benchmark_report.front_page_markdown(benchmark_baselines(results))
 
 
 # --- the figures ---------------------------------------------------------------------------------
