@@ -21,8 +21,12 @@ Usage::
     python benchmarks/learning_speed.py --side wolves --minutes 2 --seeds 1 --json        # throughput only
     python benchmarks/learning_speed.py --trainers native --minutes 15 --seeds 5 --out benchmarks/results/learning-x.json
 
-Runs go one after another (never side by side: each has the machine to itself). Nothing here
-asserts a speed; the numbers are what the machine gave.
+Runs go one after another (never side by side: each has the machine to itself). On a machine with
+many cores, ``--parallel N`` runs N at once instead, each pinned to its own two cores with two
+batch and two torch threads: a 2-core figure per run, N of them at a time (the runs still share
+the memory bus and the last-level cache, so it is not the same as a 2-core machine). The jobs
+alternate between the trainers so that both see the same neighbours. Nothing here asserts a
+speed; the numbers are what the machine gave.
 """
 
 from __future__ import annotations
@@ -45,10 +49,17 @@ LEVELS = (0.80, 0.90, 0.95)
 TRAINERS = ("native", "sb3")
 
 
-def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: Path, evaluations: int, eval_episodes: int, device: str) -> list[str]:
+#: Cores, batch threads and torch threads of each run under --parallel.
+PINNED_CORES = 2
+
+
+def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: Path, evaluations: int, eval_episodes: int, device: str,
+            pinned: bool = False) -> list[str]:
     if trainer == "native":
+        threads = ["--threads", str(PINNED_CORES), "--torch-threads", str(PINNED_CORES)] if pinned else []
         return [sys.executable, "-m", "wolfpack.cli", "train", "--side", side, "--algo", algo, "--seed", str(seed), "--time-limit", str(minutes),
-                "--evaluations", str(evaluations), "--eval-episodes", str(eval_episodes), "--device", device, "--out", str(out), "--no-progress"]
+                "--evaluations", str(evaluations), "--eval-episodes", str(eval_episodes), "--device", device, "--out", str(out), "--no-progress",
+                *threads]
     # SB3's budget is in timesteps: a ceiling it never reaches in the time limit, and held-out
     # evaluations at the same count per run as the native trainer's, from its measured rate.
     ceiling = 10**10
@@ -117,6 +128,46 @@ def table(doc: dict) -> str:
     return "\n".join(lines)
 
 
+def run_jobs(jobs: list[tuple[str, int]], folders: dict, args: argparse.Namespace, cores: list[int]) -> int:
+    """Runs every (trainer, seed) job, ``args.parallel`` at a time (each on its own pinned cores
+    when more than one); the exit status of the first that failed (its stderr printed), else 0."""
+    pinned = args.parallel > 1
+    free = [cores[PINNED_CORES * k:PINNED_CORES * (k + 1)] for k in range(args.parallel)]
+    running: list[tuple[subprocess.Popen, list[int], object]] = []
+    pending = list(jobs)
+    failed = 0
+    try:
+        while (pending and not failed) or running:
+            while pending and free and not failed:
+                trainer, seed = pending.pop(0)
+                out = folders[(trainer, seed)]
+                slot = free.pop(0)
+                cmd = command(trainer, args.side, args.algo, seed, args.minutes, out, args.evaluations, args.eval_episodes, args.device, pinned)
+                where = f" on cores {slot}" if pinned else ""
+                print(f"[{time.strftime('%H:%M:%S')}] {trainer} seed {seed}{where}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
+                log = tempfile.TemporaryFile(mode="w+")
+                pin = (lambda s=slot: os.sched_setaffinity(0, s)) if pinned else None
+                running.append((subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=log, text=True, preexec_fn=pin), slot, log))
+            time.sleep(0.5)
+            for entry in list(running):
+                proc, slot, log = entry
+                if proc.poll() is None:
+                    continue
+                running.remove(entry)
+                free.append(slot)
+                if proc.returncode != 0 and not failed:
+                    log.seek(0)
+                    print(log.read()[-2000:], file=sys.stderr)
+                    failed = proc.returncode
+                    for other, _, _ in running:  # the table would be incomplete
+                        other.kill()
+                log.close()
+    finally:
+        for proc, _, _ in running:
+            proc.kill()
+    return failed
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--side", choices=("wolves", "targets"), default="wolves")
@@ -131,24 +182,29 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--keep", default=None, metavar="DIR", help="keep every run's folder under DIR (default: a temporary folder)")
     p.add_argument("--json", action="store_true", help="print the JSON document instead of the table")
     p.add_argument("--out", default=None, help="also write the JSON document here")
+    p.add_argument("--parallel", type=int, default=1, metavar="N",
+                   help=f"runs at once, each pinned to its own {PINNED_CORES} cores (default 1: one after another, unpinned)")
     args = p.parse_args(argv)
+    cores = sorted(os.sched_getaffinity(0))
+    if args.parallel < 1 or (args.parallel > 1 and args.parallel * PINNED_CORES > len(cores)):
+        p.error(f"--parallel {args.parallel}: needs {PINNED_CORES} cores a run, and this process may use {len(cores)}")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    doc = {"side": args.side, "algo": args.algo, "minutes": args.minutes, "seed_list": seeds, "evaluations": args.evaluations,
+    doc = {"side": args.side, "algo": args.algo, "minutes": args.minutes, "seed_list": seeds, "evaluations": args.evaluations, "parallel": args.parallel,
            "eval_episodes": args.eval_episodes, "machine": machine_info(), "started": time.strftime("%Y-%m-%d %H:%M:%S"), "trainers": {}, "runs": {}}
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(args.keep) if args.keep else Path(scratch)
+        base.mkdir(parents=True, exist_ok=True)
+        if args.parallel == 1:
+            jobs = [(trainer, seed) for trainer in args.trainers for seed in seeds]
+        else:
+            jobs = [(trainer, seed) for seed in seeds for trainer in args.trainers]
+        folders = {job: base / f"{job[0]}_{args.side}_{args.algo if job[0] == 'native' else 'ppo'}_s{job[1]}" for job in jobs}
+        failed = run_jobs(jobs, folders, args, cores)
+        if failed:
+            return failed
         for trainer in args.trainers:
-            runs = []
-            for seed in seeds:
-                out = base / f"{trainer}_{args.side}_{args.algo if trainer == 'native' else 'ppo'}_s{seed}"
-                cmd = command(trainer, args.side, args.algo, seed, args.minutes, out, args.evaluations, args.eval_episodes, args.device)
-                print(f"[{time.strftime('%H:%M:%S')}] {trainer} seed {seed}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
-                done = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-                if done.returncode != 0:
-                    print(done.stderr[-2000:], file=sys.stderr)
-                    return done.returncode
-                runs.append(read_run(trainer, args.side, out))
+            runs = [read_run(trainer, args.side, folders[(trainer, seed)]) for seed in seeds]
             doc["runs"][trainer] = runs
             doc["trainers"][trainer] = summarise(runs)
     text = json.dumps(doc, indent=1)
