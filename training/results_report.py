@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The tables of RESULTS.md (and README's benchmark table), generated from the JSON in results/.
+"""The tables of RESULTS.md (and README's and docs/tasks.md's), generated from the JSON in results/.
 
     python training/results_report.py             # rewrite every generated table of RESULTS.md
     python training/results_report.py --check     # exit 1 naming the stale tables; writes nothing
@@ -41,8 +41,9 @@ import selfplay  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 BEGIN = re.compile(r"^<!-- generated: ([a-z0-9-]+) -->\n", re.M)
 END = "<!-- end generated -->"
-#: The documents with generated blocks: RESULTS.md, and README's front-page benchmark table.
-DOCUMENTS = [ROOT / "RESULTS.md", ROOT / "README.md"]
+#: The documents with generated blocks: RESULTS.md, README's front-page benchmark table and the
+#: task suite's page (its exploitability table).
+DOCUMENTS = [ROOT / "RESULTS.md", ROOT / "README.md", ROOT / "docs" / "tasks.md"]
 
 
 class ReportError(ValueError):
@@ -366,7 +367,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="results_report.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--results", type=Path, default=ROOT / "results", help="the results folder the tables are made from (default: results/)")
     p.add_argument("--out", type=Path, nargs="+", default=DOCUMENTS, metavar="FILE",
-                   help="the documents whose generated blocks are rewritten (default: RESULTS.md and README.md)")
+                   help="the documents whose generated blocks are rewritten (default: RESULTS.md, README.md, docs/tasks.md)")
     p.add_argument("--check", action="store_true", help="write nothing; exit 1 if any generated block differs from what the results give")
     p.add_argument("--figures", action="store_true", help="also redraw, in --results, the figures drawn from committed JSON")
     args = p.parse_args(argv)
