@@ -26,7 +26,6 @@
 //! formulas a tenth of that. The tests check them against parry's `Ball`, `Segment` and `Aabb`
 //! casts, which stay the reference.
 
-
 use crate::config::Params;
 use crate::math::{cross, Vec2};
 use crate::world::{AgentState, Obstacle, World};

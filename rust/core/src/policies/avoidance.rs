@@ -77,7 +77,6 @@ pub struct Item {
     pub dist: f64,
 }
 
-
 /// The items in range, on the stack.
 #[derive(Debug, Clone)]
 pub struct Items {
@@ -182,7 +181,6 @@ pub struct Interval {
     pub dist: f64,
     pub exempt: bool,
 }
-
 
 impl Interval {
     /// (ψ − κΔ, ψ + κΔ); a half-width beyond π covers the whole circle.

@@ -77,7 +77,6 @@ pub fn target_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory,
     }
 }
 
-
 /// Global communication (SPEC §1.4) for the laws that hunt a position (bvc, formation): when
 /// any wolf hunting wolf i's target senses it, the whole pack learns the target's state and the
 /// step; returns the target as last sensed (None before any sighting).
@@ -125,7 +124,6 @@ impl<V: Clone> LastCall<V> {
         }
     }
 }
-
 
 /// A hand-made scene for the laws' unit tests: owns what a [`Snapshot`] borrows.
 #[cfg(test)]
