@@ -108,6 +108,21 @@ def test_alternating_benchmark_runs_and_reports_both_rates():
     assert len(rates) >= 2 and all(r > 0 for r in rates[-2:]), line
 
 
+def test_under_load_benchmark_runs_with_a_busy_process_and_stops_it(tmp_path):
+    script = SCRIPT.parent / "under_load.py"
+    out = tmp_path / "under_load.json"
+    cmd = [sys.executable, str(script), "--loads", "0,1", "--sizes", "8", "--repeats", "1", "--seconds", "0.05", "--out", str(out)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert [line.split()[0] for line in done.stdout.strip().splitlines()] == ["K=0", "K=1"], done.stdout
+    doc = json.loads(out.read_text())
+    for k in ("0", "1"):
+        rates = doc["loads"][k]["8"]["median"]
+        assert set(rates) == {"1", "2"} and all(r > 0 for r in rates.values()), doc["loads"][k]
+    spinning = subprocess.run(["pgrep", "-f", "while True: pass"], capture_output=True, text=True)
+    assert spinning.stdout.strip() == "", "a busy process outlived the benchmark"
+
+
 def _peers_module(monkeypatch):
     if not SCRIPT.exists():
         pytest.skip("benchmarks/peers.py is not part of this checkout")

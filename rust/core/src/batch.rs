@@ -107,6 +107,11 @@ pub const INLINE_BELOW: usize = 8;
 /// (an atomic update, ≈ 20 ns unless another thread is stealing from the same run) every 16
 /// worlds is free, and a thread that runs out steals at most ≈ 50 µs of work at a time.
 const MAX_CHUNK: usize = 16;
+/// Below this many items a job does not wake the crew's parked members ([`Crew::run_with`]):
+/// 32 worlds are ≈ 150 µs of one thread's stepping, several times a member's wake-up on a VM
+/// (tens of µs), so a member woken for them still finds worlds to step; fewer are done, or
+/// nearly, by the time it comes.
+const WAKE_FROM: usize = 32;
 
 /// Worlds per thread from which a step asks the CPU to load each next world's memory while it
 /// steps the current one ([`Slot::prefetch`]). Below, a thread's worlds are still in the
@@ -656,7 +661,7 @@ fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, chunk: usize,
     // Participant `home` (the caller 0, crew member w its w) drains its home run, then helps.
     // It claims its next chunk before it runs the last index of the current one, so that the
     // index it hints is always one it holds (a world another thread steps is never touched).
-    crew.run(&|home: usize| {
+    crew.run_with(&|home: usize| {
         let mut current = runs.take(home);
         while let Some(range) = current {
             let next = runs.take(home);
@@ -669,7 +674,7 @@ fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, chunk: usize,
             }
             current = next;
         }
-    });
+    }, n >= WAKE_FROM);
 }
 
 /// Shared access, from many threads, to distinct elements of a slice borrowed for `'a`: the
