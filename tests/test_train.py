@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -370,3 +372,19 @@ def test_every_pool_member_is_checked_before_anything_is_written(both_run, cli, 
     # The both-sides run's targets see 16 lidar rays; with 8 rays the pool's second member does not fit.
     result = cli("train", "--side", "wolves", "--out", tmp_path / "b", "--time-limit", "1", "--opponent", "escape", "--opponent", out / "targets", "--set", "env.lidar.rays=8")
     assert result.returncode == 2 and "observations" in result.stderr and not (tmp_path / "b").exists(), result.stderr
+
+
+def test_a_training_run_asks_torch_openmp_to_wait_passively_unless_the_user_chose():
+    # In a fresh interpreter (torch not yet imported): the run sets the policy before torch
+    # loads, and leaves a user's own choice alone.
+    code = (
+        "import os, sys\n"
+        "from wolfpack.learn.cli import prefer_passive_omp\n"
+        "prefer_passive_omp()\n"
+        "print(os.environ.get('OMP_WAIT_POLICY'))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    fresh = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert fresh.stdout.strip() == "PASSIVE"
+    chosen = subprocess.run([sys.executable, "-c", code], env={**env, "OMP_WAIT_POLICY": "ACTIVE"}, capture_output=True, text=True, check=True)
+    assert chosen.stdout.strip() == "ACTIVE"

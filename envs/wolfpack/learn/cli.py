@@ -6,6 +6,7 @@ import argparse
 import json
 import os
 import shlex
+import sys
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -129,6 +130,22 @@ def default_threads() -> tuple[int, int]:
     return cores, cores
 
 
+def prefer_passive_omp() -> None:
+    """Asks torch's OpenMP threads to sleep, not spin, while they wait (``OMP_WAIT_POLICY=PASSIVE``)
+    unless the user chose otherwise; only possible before torch is first imported, so it is the
+    first thing a training run does.
+
+    Spinning OpenMP workers wait for one another at the end of every parallel region; beside
+    another busy process (the usual case on a small machine: a second run, an evaluation) a
+    descheduled worker holds the others for a scheduler slice per region. On the 2-core VM,
+    `wolfpack train --side wolves`, 2 M agent-steps, twice each: beside one busy process 22–23 k
+    agent-steps/s spinning, 49–51 k passive; beside two, 2.9 k against 41.5 k; quiet, 73–77 k
+    against 67–79 k (no difference beyond noise). BENCHMARKS.md, "Threads beside a busy
+    process"."""
+    if "torch" not in sys.modules:
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 def resolve_device(device: str):
     import torch
 
@@ -170,6 +187,7 @@ def _short(v: Any) -> str:
 def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, task: str | None = None, opponent, device: str,
                  threads, torch_threads, eval_episodes: int, resume: bool, evaluations: int = 10, imitate_min: float | None = None, progress: bool, command: str) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
+    prefer_passive_omp()
     if learners not in LEARNERS:
         raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
     if algo not in ALGOS:
