@@ -641,8 +641,9 @@ fn share<T: Send, R: Send>(crew: Option<&mut Crew>, participants: usize, items: 
 ///
 /// Why not `pool.install(par_iter)`: the caller (Python's thread) then only waits, and every
 /// step pays for waking all workers and for waking the caller again (≈ 40–80 µs on this VM,
-/// as much as 16 worlds' work); here the caller starts at once, and the crew's members are
-/// usually still awake from the last step (see [`crate::crew`] for why not a rayon scope).
+/// as much as 16 worlds' work); here the caller starts at once and the crew's members join as
+/// they wake, or not at all for fewer than [`WAKE_FROM`] items (see [`crate::crew`] for why
+/// not a rayon scope).
 fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, chunk: usize, ahead: impl Fn(usize) + Sync, f: impl Fn(usize) + Sync) {
     let crew = match crew {
         Some(c) if participants > 1 && n > 0 => c,

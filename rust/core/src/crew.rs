@@ -26,9 +26,9 @@
 //! Rayon stays what runs the scripted episodes (`episode::run_episodes`), whose tasks are
 //! whole episodes (milliseconds each), where none of this shows.
 //!
-//! Panics: a member's panic is caught, and the caller re-raises it once every member has
-//! finished the job (the job borrows the caller's stack, so the caller never returns before
-//! then). A crew made in one process and used in a child forked from it (whose members did
+//! Panics: a member's panic is caught, and the caller re-raises it once every member that
+//! joined the job has finished it (the job borrows the caller's stack, so the caller never
+//! returns before then). A crew made in one process and used in a child forked from it (whose members did
 //! not survive the fork) starts new members first instead of waiting forever.
 
 use std::any::Any;
