@@ -308,3 +308,18 @@ def test_a_time_limit_sets_the_cadence_of_evaluations_and_checkpoints_unless_a_f
     assert train.clock_period(limited, 100_000, 10) is None  # --eval-freq given: it alone
     assert train.clock_period(argparse.Namespace(time_limit=None, timesteps=10), None, 10) is None
     assert not train.clock_due(0.0, None)
+
+
+def test_the_matrix_names_the_scenario_it_was_played_in():
+    from wolfpack.task import task_params
+
+    assert evaluate.scenario_name(task_params("hunt-v1")) == "task `hunt-v1` (the documented scenario, params.yaml)"
+    # JSON's lists for tuples, and the learner's keys, do not change the scenario.
+    small = json.loads(json.dumps(task_params("small-pack-v1")))
+    small["env"] = dict(small["env"], last_sighting=True)
+    assert evaluate.scenario_name(small) == "task `small-pack-v1`"
+    changed = json.loads(json.dumps(task_params("hunt-v1")))
+    changed["world"]["max_steps"] = 100
+    assert evaluate.scenario_name(changed).startswith("params of no named task")
+    doc = json.loads((TRAINING.parent / "results" / "matrix" / "matrix.json").read_text())
+    assert "played in task `hunt-v1`" in evaluate.matrix_summary_markdown(doc).splitlines()[0]

@@ -248,12 +248,32 @@ def robustness(cells: list[dict], wolves: list[str], targets: list[str]) -> dict
     return out
 
 
+#: Params sections that change what a learner observes or is paid, never an episode's outcome
+#: (and ``policies``, which each pairing sets): a scenario is named by the rest.
+NOT_THE_SCENARIO = ("policies", "env", "rewards")
+
+
+def scenario_name(params: dict) -> str:
+    """The named task whose world ``params`` are (``hunt-v1``, the documented scenario: …), or
+    what they are when they match none: tables and figures say which scenario they come from."""
+    from wolfpack.task import TASK_ORDER, task_params
+
+    def world(p: dict) -> dict:  # as JSON holds it (tuples become lists)
+        return json.loads(json.dumps({k: v for k, v in p.items() if k not in NOT_THE_SCENARIO}))
+
+    for name in TASK_ORDER:
+        if world(params) == world(task_params(name)):
+            return f"task `{name}`" + (" (the documented scenario, params.yaml)" if name == "hunt-v1" else "")
+    return "params of no named task (the `params` of the JSON beside this file)"
+
+
 def matrix_summary_markdown(doc: dict) -> str:
     """The cross-play table alone (capture rate, interval and collisions per cell, each policy's
     worst case): what RESULTS.md quotes, without the every-column table below it."""
     by = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
     wolves, targets, rob = doc["wolves"], doc["targets"], doc["robustness"]
-    lines = [f"Capture rate (95 % interval) · wolf collisions; {doc['episodes']} episodes per cell, seeds {doc['seed']}–{doc['seed'] + doc['episodes'] - 1}.", "",
+    lines = [f"Capture rate (95 % interval) · wolf collisions; {doc['episodes']} episodes per cell, seeds {doc['seed']}–{doc['seed'] + doc['episodes'] - 1}; "
+             f"played in {scenario_name(doc['params'])}.", "",
              "| wolves \\ targets | " + " | ".join(targets) + " | worst case (capture) |", "|---|" + "---|" * (len(targets) + 1)]
     for w in wolves:
         cells = []
@@ -302,7 +322,7 @@ def matrix_plot(doc: dict, path: Path) -> None:
     ax.set_xticks(range(len(targets)), [])
     ax.set_yticks(range(len(wolves)), wolves, fontsize=8)
     ax.set_ylabel("wolf policy")
-    ax.set_title(f"capture rate, {doc['episodes']} episodes per cell (same seeds)", fontsize=9)
+    ax.set_title(f"capture rate, {doc['episodes']} episodes per cell (same seeds), in {scenario_name(doc['params']).split(' (')[0].replace('`', '')}", fontsize=9)
     worst = np.array([[rob["wolves"][w]["worst_capture_rate"] * 100] for w in wolves])
     side.imshow(worst, cmap="viridis", vmin=0, vmax=100, aspect="auto")
     for i, w in enumerate(wolves):
