@@ -248,18 +248,14 @@ def robustness(cells: list[dict], wolves: list[str], targets: list[str]) -> dict
     return out
 
 
-#: Params sections that change what a learner observes or is paid, never an episode's outcome
-#: (and ``policies``, which each pairing sets): a scenario is named by the rest.
-NOT_THE_SCENARIO = ("policies", "env", "rewards")
-
-
 def scenario_name(params: dict) -> str:
     """The named task whose world ``params`` are (``hunt-v1``, the documented scenario: …), or
-    what they are when they match none: tables and figures say which scenario they come from."""
-    from wolfpack.task import TASK_ORDER, task_params
+    what they are when they match none (who plays, what a learner observes and is paid aside:
+    ``wolfpack.task.PLAYER_SECTIONS``): tables and figures say which scenario they come from."""
+    from wolfpack.task import PLAYER_SECTIONS, TASK_ORDER, task_params
 
     def world(p: dict) -> dict:  # as JSON holds it (tuples become lists)
-        return json.loads(json.dumps({k: v for k, v in p.items() if k not in NOT_THE_SCENARIO}))
+        return json.loads(json.dumps({k: v for k, v in p.items() if k not in PLAYER_SECTIONS}))
 
     for name in TASK_ORDER:
         if world(params) == world(task_params(name)):
