@@ -97,3 +97,42 @@ def test_unclosed_or_unknown_blocks_are_refused_with_status_2(copied, capsys):
     document.write_text(text.replace("<!-- generated: matrix -->", "<!-- generated: no-such-table -->"))
     assert results_report.main(["--results", str(results), "--out", str(document)]) == 2
     assert "no-such-table" in capsys.readouterr().err
+
+
+def test_the_source_wall_factor_run_feeds_the_sb3_sections_tables(copied):
+    documents, results = copied
+    run = results / "wall_factor" / "source_200" / "results.json"
+    doc = json.loads(run.read_text())
+    row = next(r for r in doc["rows"] if r["wolves"] == "seed000" and r["targets"] == "escape")
+    row["capture_rate"], row["survival_rate"] = 0.9, 0.1  # were 0.94 and 0.06
+    run.write_text(json.dumps(doc))
+    assert results_report.check(documents, results) == ["stale in RESULTS.md: wall-factor, escape-ppo, wolves-imitation, laws-vs-escape-ppo"]
+    table = results_report.escape_ppo(results_report.Results(results))
+    assert "| scripted `escape` | 10.0 % |" in table and "**8.9×**" in table  # 89.0 % / 10.0 %
+
+
+def test_the_league_targets_are_judged_on_the_matrix(copied):
+    _, results = copied
+    matrix = results / "matrix" / "matrix.json"
+    doc = json.loads(matrix.read_text())
+    for cell in doc["cells"]:
+        if cell["wolves"] == "ppo:league/wolves_g06" and cell["targets"] == "ppo:escape_ppo":
+            cell["capture_rate"] = 0.93  # was 0.855, under the 90 % asked
+    matrix.write_text(json.dumps(doc))
+    rows = results_report.league_targets(results_report.Results(results)).splitlines()
+    assert rows[3] == "| learned wolves ≥ 90 % against the learned escaper escape_ppo | best: league/wolves_g06 93.0 % (80–90 %) | yes |"
+    assert rows[2].endswith("| **no** |") and rows[6].endswith("| yes |")
+
+
+def test_the_pool_column_follows_the_pool_the_seeds_trained_against(copied):
+    documents, results = copied
+    configs = sorted((results / "learned" / "wolves_pool").glob("wolves_pool_s*/config.yaml"))
+    assert len(configs) == 5
+    for config in configs:
+        config.write_text(config.read_text().replace("- results/models/escape_ppo\n", ""))
+    table = results_report.wolves_pool_seeds(results_report.Results(results))
+    assert "| ppo:escape_ppo (the committed learned escaper) | **no** |" in table
+    assert "| SB3 league targets_g01 | yes |" in table
+    configs[0].write_text(configs[0].read_text().replace("- escape\n", "", 1))
+    with pytest.raises(ValueError, match="different pools"):
+        results_report.wolves_pool_seeds(results_report.Results(results))

@@ -260,7 +260,9 @@ def fit_value(policy, batch, side: str, act, gamma: float, max_steps: int, args)
             opt.step()
 
 
-def plot(out: Path, history: list[dict], side: str) -> None:
+def plot(out: Path, history: list[dict], side: str, path: Path | None = None) -> None:
+    """The held-out capture rate and the cloning loss per DAgger round, into ``path`` (default
+    ``out/imitation.png``); the title names the run folder ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -281,7 +283,7 @@ def plot(out: Path, history: list[dict], side: str) -> None:
     b.grid(alpha=0.3)
     fig.suptitle(f"{out.name}: imitation ({side})")
     fig.tight_layout()
-    fig.savefig(out / "imitation.png", dpi=120)
+    fig.savefig(path or out / "imitation.png", dpi=120)
     plt.close(fig)
 
 

@@ -35,6 +35,7 @@ import yaml  # noqa: E402
 import benchmark_report  # noqa: E402
 import evaluate  # noqa: E402
 import exploitability  # noqa: E402
+import imitate  # noqa: E402
 import seeds  # noqa: E402
 import selfplay  # noqa: E402
 
@@ -141,6 +142,190 @@ def evaluation(results: Results) -> str:
     return evaluate.markdown(results.json("results.json")["rows"])
 
 
+# --- the SB3-era sections: the scenario's wall factor, (a), (b), the laws against (a) ------------
+
+#: evaluate.py's scripted rows in the two worlds of "The scenario's decisions": the default is
+#: the reference's target wall factor κ 1.6 / 1.3, the source document's is 1.2 / 1.2 (and the
+#: world the SB3 models were trained in). ``results.json`` is the 200 episodes of the default.
+WALL_FACTOR_RUNS = (
+    ("1.6 / 1.3 (default, reference)", "results.json"),
+    ("1.2 / 1.2 (source document)", "wall_factor/source_200/results.json"),
+    ("1.6 / 1.3 (default, reference)", "wall_factor/reference_1000/results.json"),
+    ("1.2 / 1.2 (source document)", "wall_factor/source_1000/results.json"),
+)
+#: The source document's wall factor, 200 episodes: the world of the SB3 models' own params.
+SOURCE_WALL = "wall_factor/source_200/results.json"
+LAWS = ("seed000", "bvc", "formation")
+
+
+def row_of(doc: dict, wolves: str, targets: str) -> dict:
+    """The row (or matrix cell) of one pairing."""
+    for row in doc.get("rows", doc.get("cells", [])):
+        if row["wolves"] == wolves and row["targets"] == targets:
+            return row
+    raise KeyError(f"{wolves} vs {targets}")
+
+
+def interval(ci: list[float], survival: bool = False) -> str:
+    """A Wilson interval as ``89.8 %–96.5 %``; of the survival rate when ``survival``."""
+    lo, hi = (1 - ci[1], 1 - ci[0]) if survival else ci
+    return f"{percent(lo)}–{percent(hi)}"
+
+
+def change(new: float, old: float) -> str:
+    """``−30 %``: a relative change, rounded to a whole percent."""
+    return f"{100 * (new - old) / old:+.0f} %".replace("-", "−")
+
+
+@block("wall-factor")
+def wall_factor(results: Results) -> str:
+    """seed000 against escape in the two wall-factor worlds, 200 and 1,000 episodes."""
+    lines = ["| target's wall κ | episodes | captured | wolf collisions | timeout | median capture step | ever cornered |", "|---|---|---|---|---|---|---|"]
+    for label, file in WALL_FACTOR_RUNS:
+        r = row_of(results.json(file), "seed000", "escape")
+        lines.append(f"| {label} | {r['episodes']} | {percent(r['capture_rate'])} | {percent(r['collision_rate'])} | {percent(r['timeout_rate'])} "
+                     f"| {r['median_capture_steps']:g} | {percent(r['ever_cornered_rate'])} |")
+    return "\n".join(lines)
+
+
+@block("escape-ppo")
+def escape_ppo(results: Results) -> str:
+    """(a): the SB3 escaper against seed000 beside the scripted escape target, both on the model's
+    params (κ 1.2)."""
+    scripted = row_of(results.json(SOURCE_WALL), "seed000", "escape")
+    learned = row_of(results.json("results.json"), "seed000", "ppo:escape_ppo")
+    wall = results.json("models/escape_ppo/train_summary.json")["wall_s"]
+    ratio = learned["survival_rate"] / scripted["survival_rate"]
+    return "\n".join([
+        "| target vs seed000 wolves (κ = 1.2, the model's params) | survived (not captured) | 95% CI | vs scripted escape |", "|---|---|---|---|",
+        f"| scripted `escape` | {percent(scripted['survival_rate'])} | {interval(scripted['capture_rate_ci95'], survival=True)} | 1× |",
+        f"| PPO, final model ({wall / 60:.0f} min) | **{percent(learned['survival_rate'])}** | {interval(learned['capture_rate_ci95'], survival=True)} | **{ratio:.1f}×** |",
+    ])
+
+
+@block("wolves-imitation")
+def wolves_imitation(results: Results) -> str:
+    """(b): the imitation clone and its PPO fine-tuning beside seed000, on the models' params (κ 1.2)."""
+    law = row_of(results.json(SOURCE_WALL), "seed000", "escape")
+    rows = results.json("results.json")
+    clone, tuned = row_of(rows, "imitation:wolves_bc_vel_b", "escape"), row_of(rows, "ppo:wolves_ft", "escape")
+    clone_min = results.json("models/wolves_bc_vel_b/imitation.json")["rounds"][-1]["elapsed_s"] / 60
+    tuned_min = results.json("models/wolves_ft/train_summary.json")["wall_s"] / 60
+
+    def line(name: str, r: dict, capture: str, steps: str, energy: str) -> str:
+        return f"| {name} | {capture} | {interval(r['capture_rate_ci95'])} | {steps} | {percent(r['collision_rate'])} | {energy} |"
+
+    return "\n".join([
+        "| wolves vs scripted escape (κ = 1.2, the models' params) | capture | 95% CI | median capture step | wolf collisions | energy (J) |", "|---|---|---|---|---|---|",
+        line("seed000 (analytic)", law, percent(law["capture_rate"]), f"{law['median_capture_steps']:.1f}", f"{law['mean_energy']:.0f}"),
+        line(f"imitation (BC + DAgger), {clone_min:.0f} min", clone, f"{percent(clone['capture_rate'])} (**{percent(clone['capture_rate'] / law['capture_rate'])} of seed000**)",
+             f"{clone['median_capture_steps']:.1f}", f"{clone['mean_energy']:.0f}"),
+        line(f"imitation + PPO fine-tuning, {tuned_min:.0f} min", tuned, percent(tuned["capture_rate"]),
+             f"**{tuned['median_capture_steps']:.1f} ({change(tuned['median_capture_steps'], law['median_capture_steps'])})**",
+             f"**{tuned['mean_energy']:.0f} ({change(tuned['mean_energy'], law['mean_energy'])})**"),
+    ])
+
+
+@block("laws-vs-escape-ppo")
+def laws_vs_escape_ppo(results: Results) -> str:
+    """The three laws against the scripted escape target in both wall-factor worlds and against the
+    SB3 escaper of (a) (the matrix's cells: the wall factor steers only the scripted target)."""
+    source, default, matrix = results.json(SOURCE_WALL), results.json("results.json"), results.json("matrix/matrix.json")
+    lines = ["| wolves vs | scripted escape, κ 1.2: captured / collisions / median | scripted escape, defaults (κ 1.6 / 1.3) | learned escape (a): captured (95 % CI) / median / collisions |",
+             "|---|---|---|---|"]
+
+    def short(r: dict) -> str:
+        return f"{percent(r['capture_rate'])} / {percent(r['collision_rate'])} / {r['median_capture_steps']:g}"
+
+    for law in LAWS:
+        learned = row_of(matrix, law, "ppo:escape_ppo")
+        lo, hi = learned["capture_rate_ci95"]
+        lines.append(f"| {law} | {short(row_of(source, law, 'escape'))} | {short(row_of(default, law, 'escape'))} "
+                     f"| {percent(learned['capture_rate'])} ({100 * lo:.1f}–{100 * hi:.1f}) / {learned['median_capture_steps']:g} / {percent(learned['collision_rate'])} |")
+    return "\n".join(lines)
+
+
+# --- the SB3 leagues against the targets set for them ----------------------------------------------
+
+#: What the SB3 leagues were asked to reach (capture or survival rates, seeds 0–199).
+LEAGUE_WOLVES_VS_ESCAPE = 0.97
+LEAGUE_WOLVES_VS_ESCAPER = 0.90
+LEAGUE_COLLISIONS = 0.01
+LEAGUE_ESCAPER_SURVIVAL = 0.50
+LEAGUE_HOURS_PER_SIDE = 2
+
+
+def model_name(policy: str) -> str:
+    """``league/wolves_g06`` for ``ppo:league/wolves_g06``: a model without its kind."""
+    return policy.split(":", 1)[1]
+
+
+@block("league-targets")
+def league_targets(results: Results) -> str:
+    """The targets set for the SB3 leagues, each measured on the cross-play matrix's SB3-era cut
+    and the league's wall times, and whether it was met."""
+    doc = results.json("matrix/matrix.json")
+    cells = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
+    wolves = [w for w in doc["wolves"] if ":" in w and trained_by_sb3(w)]
+    escapers = [t for t in doc["targets"] if ":" in t and trained_by_sb3(t)]
+
+    def capture(w: str, t: str) -> float:
+        return cells[w, t]["capture_rate"]
+
+    def collisions(w: str, t: str) -> float:
+        return cells[w, t]["collision_rate"]
+
+    def survival(t: str, w: str) -> float:
+        return 1 - capture(w, t)
+
+    def yes_no(met: bool, why: str = "") -> str:
+        return "yes" if met else f"**no**{why}"
+
+    rows = []
+
+    best = max(wolves, key=lambda w: capture(w, "escape"))
+    league = [capture(w, "escape") for w in wolves if w.startswith("ppo:league/")]
+    rows.append((f"learned wolves ≥ {100 * LEAGUE_WOLVES_VS_ESCAPE:.0f} % against scripted escape",
+                 f"best learned: {model_name(best)} {percent(capture(best, 'escape'))} ({percent(collisions(best, 'escape'))} collisions); "
+                 f"league wolves {100 * min(league):.0f}–{100 * max(league):.0f} %",
+                 yes_no(capture(best, "escape") >= LEAGUE_WOLVES_VS_ESCAPE)))
+
+    best = max(wolves, key=lambda w: capture(w, "ppo:escape_ppo"))
+    rate = capture(best, "ppo:escape_ppo")
+    lo, hi = cells[best, "ppo:escape_ppo"]["capture_rate_ci95"]
+    rows.append((f"learned wolves ≥ {100 * LEAGUE_WOLVES_VS_ESCAPER:.0f} % against the learned escaper escape_ppo",
+                 f"best: {model_name(best)} {percent(rate)} ({100 * lo:.0f}–{100 * hi:.0f} %)",
+                 yes_no(rate >= LEAGUE_WOLVES_VS_ESCAPER, f" ({100 * (LEAGUE_WOLVES_VS_ESCAPER - rate):.1f} points short)")))
+
+    both = ("escape", "ppo:escape_ppo")
+    law = max(LAWS, key=lambda w: min(capture(w, t) for t in both))
+    better = [w for w in LAWS if all(capture(w, t) >= capture(best, t) and collisions(w, t) <= collisions(best, t) for t in both)]
+
+    def spread(w: str) -> str:
+        return f"{100 * min(collisions(w, t) for t in both):.1f}–{100 * max(collisions(w, t) for t in both):.1f} %"
+
+    met = all(collisions(best, t) <= LEAGUE_COLLISIONS for t in both) and not better
+    rows.append((f"… with ≤ {100 * LEAGUE_COLLISIONS:.0f} % wolf collisions, better than every analytic law on both",
+                 f"{model_name(best)}: {spread(best)} collisions; {law}: {' / '.join(percent(capture(law, t)) for t in both)} with {spread(law)}",
+                 yes_no(met, f": {' and '.join(better)} {'is' if len(better) == 1 else 'are'} better on both" if better else "")))
+
+    best = max(escapers, key=lambda t: min(survival(t, w) for w in LAWS))
+    beaten = [w for w in LAWS if any(survival(t, w) >= LEAGUE_ESCAPER_SURVIVAL for t in escapers)]
+    rows.append((f"a learned escaper survives ≥ {100 * LEAGUE_ESCAPER_SURVIVAL:.0f} % against each of {', '.join(LAWS[:-1])} and {LAWS[-1]}",
+                 f"best against its worst law: {model_name(best)} {' / '.join(percent(survival(best, w)) for w in LAWS)}; "
+                 f"survived ≥ {100 * LEAGUE_ESCAPER_SURVIVAL:.0f} % by some escaper: {', '.join(beaten) or 'none'}",
+                 yes_no(len(beaten) == len(LAWS) and min(survival(best, w) for w in LAWS) >= LEAGUE_ESCAPER_SURVIVAL,
+                        f" ({', '.join(beaten)} only)" if beaten else "")))
+
+    wall = {}
+    for g in results.json("league/league.json")["generations"]:
+        wall[g["side"]] = wall.get(g["side"], 0.0) + g["wall_s"] / 60
+    rows.append((f"within ≤ {LEAGUE_HOURS_PER_SIDE} h per side on 2 cores",
+                 "league: " + " and ".join(f"{m:.0f} min ({side})" for side, m in wall.items()),
+                 yes_no(max(wall.values()) <= 60 * LEAGUE_HOURS_PER_SIDE)))
+    return "\n".join(["| target | measured (seeds 0–199) | met? |", "|---|---|---|", *(f"| {a} | {b} | {c} |" for a, b, c in rows)])
+
+
 @block("league")
 def league(results: Results) -> str:
     """The SB3 league's table, as selfplay.py writes league.md."""
@@ -175,7 +360,10 @@ OPPONENT_LABELS = {
     "mappo:targets_g03": "native league targets_g03",
     "mappo:native_wolves_mappo_s0": "MAPPO wolves of (e), seed 0",
     "mappo:wolves_pool_s0": "pool-trained wolves of (g), seed 0",
+    "ppo:targets_long/targets_g01": "targets_long targets_g01 (45 min, against the laws)",
 }
+#: (g)'s names where they differ: its first opponent is one of the pool, the one played during training.
+POOL_LABELS = {"escape": "escape (scripted; evaluated during training)", "still": "still (`--against still`)"}
 
 
 def bold(text: str, on: bool) -> str:
@@ -208,6 +396,27 @@ def targets_mappo_seeds(results: Results) -> str:
     """(i): five seeds of the native escaper."""
     header = "| wolves | survival IQM [95 % CI] | median (range) | wolf collisions IQM [95 % CI] | median capture step |"
     return seeds_table(results.json("learned/targets_mappo/seeds.json"), header, ("skill",))
+
+
+@block("wolves-pool-seeds")
+def wolves_pool_seeds(results: Results) -> str:
+    """(g): five seeds of wolves trained against a pool of escapers, and whether each opponent of
+    the evaluation was in that pool (read from the runs' ``config.yaml``)."""
+    doc = results.json("learned/wolves_pool/seeds.json")
+    pools = {tuple(results.yaml(f"learned/wolves_pool/{Path(run).name}/config.yaml")["opponent_pool"]) for run in doc["runs"]}
+    if len(pools) != 1:
+        raise ValueError("the pool's training seeds trained against different pools")
+    specs = [str(ROOT / spec) if (ROOT / spec).exists() else spec for spec in pools.pop()]  # model paths are the checkout's
+    pool = {p if isinstance(p, str) else p.label for p in seeds.opponents_of("wolves", specs)}
+    lines = ["| target | in the pool? | captured: IQM [95 % CI] | median (range) | wolf collisions: IQM [95 % CI] | median capture step |", "|---|---|---|---|---|---|"]
+    for k, (name, entry) in enumerate(doc["opponents"].items()):
+        label = POOL_LABELS.get(name, OPPONENT_LABELS.get(name, name))
+        step = seeds.median_capture_step(entry["rows"])
+        learned = ":" in name
+        in_pool = "yes" if name in pool else bold("no", learned)
+        lines.append(f"| {label} | {in_pool} | {bold(seeds.iqm_cell(entry['skill']), k < 2)} | {seeds.range_cell(entry['skill'])} "
+                     f"| {bold(seeds.iqm_cell(entry['collision_rate']), k == 0)} | {'—' if step is None else f'{step:g}'} |")
+    return "\n".join(lines)
 
 
 #: Seed 0 of each algorithm shared the cores with other work, so its speed is not comparable.
@@ -291,14 +500,21 @@ def front_page_benchmark(results: Results) -> str:
 
 def figures(results: Results) -> list[Path]:
     """Redraws the figures of RESULTS.md that a script draws from committed JSON alone, in place;
-    returns their paths. (Trajectories need the simulator, the SB3 runs' learning curves their
-    uncommitted progress.csv, and the SB3 leagues' curves an older progress.csv layout.)"""
+    returns their paths. Not redrawn: the trajectories (they need the simulator: evaluate.py
+    ``--trajectories``), the SB3 runs' learning curves (their right panel is the training return
+    of a progress.csv that was not committed) and the SB3 league's curves (its generations logged
+    an older progress.csv layout)."""
     root = results.root
     rows = results.json("results.json")["rows"]
     evaluate.plot(rows, root / "figures")
     evaluate.matrix_plot(results.json("matrix/matrix.json"), root / "matrix" / "matrix.png")
     selfplay.league_curves(root / "league_native", results.json("league_native/league.json"))
-    drawn = [root / "figures" / "capture_rates.png", root / "figures" / "capture_times.png", root / "matrix" / "matrix.png", root / "league_native" / "league_curves.png"]
+    imitate.plot(root / "models" / "wolves_bc_vel_b", results.json("models/wolves_bc_vel_b/imitation.json")["rounds"], "wolves",
+                 path=root / "figures" / "wolves_bc_imitation.png")
+    benchmark_report.task_figure(benchmark_baselines(results), root / "benchmark" / "tasks.png")
+    benchmark_report.profile_figure(benchmark_baselines(results), root / "benchmark" / "profiles.png")
+    drawn = [root / "figures" / "capture_rates.png", root / "figures" / "capture_times.png", root / "matrix" / "matrix.png", root / "league_native" / "league_curves.png",
+             root / "figures" / "wolves_bc_imitation.png", root / "benchmark" / "tasks.png", root / "benchmark" / "profiles.png"]
     for folder, axis in (("learned/wolves_mappo", "minutes"), ("learned/wolves_pool", "minutes"), ("learned/targets_mappo", "minutes"),
                          ("learned/ippo_vs_mappo/ippo", "steps"), ("learned/ippo_vs_mappo/mappo", "steps")):
         doc = results.json(f"{folder}/seeds.json")
