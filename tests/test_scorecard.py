@@ -38,6 +38,7 @@ def test_targets_are_scored_on_survival():
     card = scorecard.scorecard("still", "targets", tasks=["hunt-v1"], episodes=10, seed=0)
     results = wolfpack.run_episodes(task_params("hunt-v1", {"policies.targets": "still"}), 10, 0)
     assert card["tasks"]["hunt-v1"]["score"] == sum(r["outcome"] != "captured" for r in results) / 10
+    assert "| target collisions | timeouts |" in scorecard.markdown(card)
 
 
 def test_ranks_count_the_baselines_that_scored_higher_and_never_the_policy_itself():
@@ -133,6 +134,7 @@ def test_benchmark_writes_a_scorecard_json_markdown_and_figure(tmp_path):
     assert list(card["tasks"]) == ["hunt-v1", "open-v1"] and card["command"].startswith("wolfpack benchmark --wolves seed000")
     table = (out / "scorecard.md").read_text()
     assert "| `hunt-v1` |" in table and "| `open-v1` |" in table and run.stdout.startswith("# Scorecard: seed000 (wolves)")
+    assert "| wolf collisions | timeouts |" in table
     assert (out / "scorecard.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -191,7 +191,7 @@ def markdown(card: dict) -> str:
         + ("Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the "
            "interquartile mean of their training seeds)." if card["ranked_against"] else "No committed baselines for these episodes: no ranks."),
         "",
-        f"| task | {verb} (95 % interval) | {side[:-1]} collisions | timeouts | rank | best baseline |",
+        f"| task | {verb} (95 % interval) | {COLLISIONS_HEADER[side]} | timeouts | rank | best baseline |",
         "|---|---|---:|---:|---:|---|",
     ]
     for task, row in card["tasks"].items():
@@ -208,6 +208,10 @@ def markdown(card: dict) -> str:
     lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
     return "\n".join(lines)
 
+
+#: The collision column of each side: episodes ended by a wolf collision, or in which a target
+#: touched an obstacle.
+COLLISIONS_HEADER = {"wolves": "wolf collisions", "targets": "target collisions"}
 
 #: How the figure's legend names each kind of baseline.
 _KIND_LABEL = {"law": "law", "learned": "learned, IQM of seeds"}
