@@ -146,6 +146,8 @@ def test_benchmark_writes_a_scorecard_json_markdown_and_figure(tmp_path):
     (["--wolves", "no/such/model"], "no/such/model"),
     (["--wolves", "bvc", "--tasks", "hunt-v7"], "invalid choice: 'hunt-v7'"),
     (["--wolves", "bvc", "--episodes", "0"], "--episodes"),
+    (["--wolves", "bvc", "--set", "capture.distanc=1.0"], "capture.distanc"),
+    (["--wolves", "bvc", "--set", "world.wolves=-3"], "world.wolves: must be an integer"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message):
     run = _cli(*argv)
@@ -158,3 +160,27 @@ def test_an_occupied_out_folder_is_refused_and_kept(tmp_path):
     run = _cli("--wolves", "seed000", "--tasks", "hunt-v1", "--episodes", "1", "--out", str(tmp_path))
     assert run.returncode == 2 and "not a new or empty folder" in run.stderr
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+def test_overrides_play_every_task_modified_and_unranked():
+    # The baselines' own episodes (200 from the held-out seed), so only the overrides stop the ranking.
+    card = scorecard.scorecard("bvc", "wolves", tasks=["hunt-v1", "open-v1"], episodes=200, seed=HELD_OUT_SEED,
+                               overrides={"capture.distance": 1.0})
+    for task in ("hunt-v1", "open-v1"):
+        results = wolfpack.run_episodes(task_params(task, {"policies.wolves": "bvc", "capture.distance": 1.0}), 200, HELD_OUT_SEED)
+        assert card["tasks"][task]["score"] == sum(r["outcome"] == "captured" for r in results) / 200
+        assert card["tasks"][task]["rank"] is None
+    assert card["modified_task"] and card["ranked_against"] is None and card["overrides"] == {"capture.distance": 1.0}
+    table = scorecard.markdown(card)
+    assert table.startswith("# Scorecard: bvc (wolves) on modified tasks\n") and "`capture.distance` changes the world" in table
+    # A learner's observation is no modification of the task, but the baselines did not play with it either.
+    card = scorecard.scorecard("bvc", "wolves", tasks=["hunt-v1"], episodes=200, overrides={"env.last_sighting": True})
+    assert not card["modified_task"] and card["ranked_against"] is None
+    assert scorecard.markdown(card).startswith("# Scorecard: bvc (wolves)\n")
+    assert scorecard.scorecard("bvc", "wolves", tasks=["hunt-v1"], episodes=200)["ranked_against"] == "committed baselines"
+
+
+def test_a_bad_override_writes_nothing(tmp_path):
+    out = tmp_path / "card"
+    run = _cli("--wolves", "bvc", "--set", "world.targets=0", "--out", str(out))
+    assert run.returncode == 2 and "world.targets" in run.stderr and not out.exists()

@@ -23,6 +23,12 @@ The baselines a scorecard is ranked among come from two files beside this module
   ranking with the interquartile mean of its seeds' scores on the same episodes.
 
 A scorecard's rank on a task is 1 + the number of baselines of its side that scored higher.
+
+``overrides`` (dotted params keys, ``--set`` on the command line) apply to every task. Keys that
+change the world or its rules make each task a *modified task* (docs/tasks.md), and the
+scorecard says so in its header; any override — even a learner's observation (``env.*``) or
+the other side's law — leaves the committed baselines' episodes behind, so a scorecard with
+overrides is not ranked.
 """
 
 from __future__ import annotations
@@ -30,12 +36,12 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from wolfpack.batch import ObservationSizeError
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
 from wolfpack.opponents import SIDES, Opponent
-from wolfpack.task import TASK_ORDER, check_task, task_params
+from wolfpack.task import TASK_ORDER, check_task, outcome_changes, task_params
 
 #: The committed baselines: the analytic laws, and the learners' IQMs over training seeds.
 BASELINES_FILE = Path(__file__).with_name("baselines.json")
@@ -61,11 +67,11 @@ def as_policy(policy: Any, side: str) -> Opponent:
 
 
 def score_task(policy: Opponent, side: str, task: str, *, episodes: int = DEFAULT_EPISODES, seed: int = HELD_OUT_SEED,
-               threads: int | None = None, progress: Callable[[int], None] | None = None) -> dict:
-    """``policy`` driving ``side`` on ``task``: the evaluation report (:func:`wolfpack.evaluation.report`)
-    with ``score`` and ``score_ci95`` added, or ``{"skipped": reason}`` when its observation size
-    does not fit the task."""
-    params = task_params(check_task(task))
+               threads: int | None = None, progress: Callable[[int], None] | None = None, overrides: Mapping[str, Any] | None = None) -> dict:
+    """``policy`` driving ``side`` on ``task`` (with ``overrides`` on top): the evaluation report
+    (:func:`wolfpack.evaluation.report`) with ``score`` and ``score_ci95`` added, or
+    ``{"skipped": reason}`` when its observation size does not fit the task."""
+    params = task_params(check_task(task), overrides)
     other_law = params["policies"][OTHER[side]]
     try:
         results = rollout(params, episodes=episodes, seed=seed, threads=threads, opponent=policy, progress=progress)
@@ -119,10 +125,13 @@ def rank(score: float, others: Sequence[float]) -> int:
 
 
 def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, episodes: int = DEFAULT_EPISODES, seed: int = HELD_OUT_SEED,
-              threads: int | None = None, baselines: dict | None = None, progress: Callable[[int], None] | None = None) -> dict:
-    """Plays ``policy`` as ``side`` on ``tasks`` (default: every task) and ranks it against
-    ``baselines`` (default: the committed ones) where they were measured on the same episodes.
-    Returns the scorecard (what ``scorecard.json`` holds)."""
+              threads: int | None = None, baselines: dict | None = None, progress: Callable[[int], None] | None = None,
+              overrides: Mapping[str, Any] | None = None) -> dict:
+    """Plays ``policy`` as ``side`` on ``tasks`` (default: every task), each with ``overrides``
+    on top, and ranks it against ``baselines`` (default: the committed ones) where they were
+    measured on the same episodes of the same tasks (never with overrides). Returns the
+    scorecard (what ``scorecard.json`` holds)."""
+    overrides = dict(overrides or {})
     driver = as_policy(policy, side)
     tasks = list(TASK_ORDER if tasks is None else tasks)
     for task in tasks:
@@ -130,10 +139,12 @@ def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, epi
     if not tasks:
         raise ValueError("no tasks to play")
     baselines = load_baselines() if baselines is None else baselines
-    comparable = baselines.get("episodes") == episodes and baselines.get("first_seed") == seed
+    for task in tasks:
+        task_params(task, overrides)  # a bad key or value fails here, before any episode
+    comparable = baselines.get("episodes") == episodes and baselines.get("first_seed") == seed and not overrides
     rows: dict[str, dict] = {}
     for task in tasks:
-        row = score_task(driver, side, task, episodes=episodes, seed=seed, threads=threads, progress=progress)
+        row = score_task(driver, side, task, episodes=episodes, seed=seed, threads=threads, progress=progress, overrides=overrides)
         if "score" in row:
             theirs = {name: entry["tasks"][task]["score"] for name, entry in baselines.get(side, {}).items()
                       if comparable and task in entry.get("tasks", {}) and "score" in entry["tasks"][task]}
@@ -154,6 +165,8 @@ def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, epi
         "episodes": episodes,
         "first_seed": seed,
         "deterministic": True,
+        "overrides": overrides,
+        "modified_task": bool(outcome_changes(overrides)),
         "ranked_against": "committed baselines" if comparable else None,
         "baseline_kinds": {name: entry["kind"] for name, entry in baselines.get(side, {}).items()},
         "tasks": rows,
@@ -184,12 +197,15 @@ def markdown(card: dict) -> str:
     side, (_, verb) = card["side"], SKILL[card["side"]]
     other = OTHER[side]
     lines = [
-        f"# Scorecard: {card['policy']} ({side})",
+        f"# Scorecard: {card['policy']} ({side}){' on modified tasks' if card.get('modified_task') else ''}",
         "",
+        *_overrides_lines(card.get("overrides") or {}),
         f"{card['episodes']} deterministic episodes per task (seeds {card['first_seed']}..{card['first_seed'] + card['episodes'] - 1}), "
         f"against each task's scripted {other}; score = {verb}, with its 95 % Wilson interval. "
         + ("Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the "
-           "interquartile mean of their training seeds)." if card["ranked_against"] else "No committed baselines for these episodes: no ranks."),
+           "interquartile mean of their training seeds)." if card["ranked_against"]
+           else "No ranks: the committed baselines played other tasks." if card.get("overrides")
+           else "No committed baselines for these episodes: no ranks."),
         "",
         f"| task | {verb} (95 % interval) | {COLLISIONS_HEADER[side]} | timeouts | rank | best baseline |",
         "|---|---|---:|---:|---:|---|",
@@ -207,6 +223,17 @@ def markdown(card: dict) -> str:
                      f"{100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
     lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
     return "\n".join(lines)
+
+
+def _overrides_lines(overrides: Mapping[str, Any]) -> list[str]:
+    """The header's account of ``overrides``: which keys made the tasks modified ones."""
+    if not overrides:
+        return []
+    given = ", ".join(f"`{k}={v}`" for k, v in overrides.items())
+    changed = outcome_changes(overrides)
+    what = (f"**Modified tasks**: {', '.join(f'`{k}`' for k in changed)} change{'s' if len(changed) == 1 else ''} the world or its rules"
+            if changed else "None of them changes the world or its rules (they set what a learner observes or is paid, or who plays)")
+    return [f"Every task played with {given}. {what}.", ""]
 
 
 #: The collision column of each side: episodes ended by a wolf collision, or in which a target

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from wolfpack.task import TASK_ORDER
+from wolfpack.task import TASK_ORDER, task_params
 
 BENCHMARK_DESCRIPTION = """\
 Score one policy on every task of the benchmark suite (docs/tasks.md) and rank it against the
@@ -23,6 +23,10 @@ plays the same held-out episodes (seeds 500000 + k, never met in training), repo
 Wilson intervals. A model built for another observation size than a task's (another agent
 count, another observation layout) skips that task, saying why; one that fits no task is an
 error. From Python, wolfpack.scorecard.scorecard() also takes a callable obs [n, D] -> actions [n, 2].
+
+--set KEY=VALUE (repeatable) changes every task: a key outside env.*, rewards.* and policies.*
+makes them modified tasks, which the scorecard's header says; a scorecard with --set is not
+ranked (the baselines played the tasks as they are).
 
 Without --out the scorecard is printed as a Markdown table; with --out DIR (a new or empty
 folder) DIR gets scorecard.json (every task's report, the ranks and the baselines compared
@@ -47,6 +51,8 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--tasks", metavar="NAME", nargs="+", choices=TASK_ORDER, default=None, help="only these tasks (default: every task)")
     p.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=200, help="episodes per task (default: 200, the baselines' count: ranks need it)")
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=None, help="first episode seed (default: 500000, the held-out episodes: ranks need it)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                   help="override a parameter of every task by its dotted key (value read as YAML); repeatable; the scorecard is then not ranked")
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
     p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty)")
     p.add_argument("--json", action="store_true", help="print the scorecard as one JSON object instead of the table")
@@ -57,7 +63,7 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
 def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from tqdm import tqdm
 
-    from wolfpack import scorecard
+    from wolfpack import config, scorecard
     from wolfpack.evaluation import HELD_OUT_SEED
 
     side = "wolves" if args.wolves is not None else "targets"
@@ -67,9 +73,13 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     out = Path(args.out) if args.out is not None else None
     if out is not None and out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ValueError(f"--out {out}: not a new or empty folder")
+    overrides = dict(config.parse_override(text) for text in args.overrides)
+    for task in tasks:
+        task_params(task, overrides)  # a bad key or value fails here, before anything is written
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
     with tqdm(total=args.episodes * len(tasks), unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
-        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update)
+        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update,
+                                    overrides=overrides)
     card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
     if out is not None:
         paths = scorecard.write(card, out)
