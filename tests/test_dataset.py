@@ -116,3 +116,25 @@ def test_the_command_writes_and_reports(tmp_path):
     meta = json.loads(run.stdout)
     assert meta["format"] == "npz" and meta["episodes"] == 3 and meta["command"].startswith("wolfpack dataset --task two-targets-v1")
     assert dataset.load_npz(tmp_path / "d")["obs_targets"].shape[1] == 2
+
+
+def test_force_replaces_a_dataset_only_once_the_new_one_is_complete(tmp_path, monkeypatch):
+    out = tmp_path / "d"
+    dataset.make("hunt-v1", "bvc", out, episodes=2, seed=0)
+    with pytest.raises(ValueError, match=r"not a new or empty folder \(--force replaces it\)"):
+        dataset.make("hunt-v1", "bvc", out, episodes=3, seed=5)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(dataset, "write_npz", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        dataset.make("hunt-v1", "bvc", out, episodes=3, seed=5, force=True)
+    assert json.loads((out / "dataset.json").read_text())["seed"] == 0  # the earlier dataset, whole
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing left beside it
+    monkeypatch.undo()
+
+    meta = dataset.make("hunt-v1", "bvc", out, episodes=3, seed=5, force=True)
+    assert meta["seed"] == 5 and json.loads((out / "dataset.json").read_text()) == meta
+    assert dataset.load_npz(out)["episode_offsets"].shape == (4,)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]

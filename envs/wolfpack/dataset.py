@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import time
 import warnings
 from pathlib import Path
@@ -232,11 +233,15 @@ def _create(minari, dataset_id: str, buffers: list, task: str, meta: dict):
 
 
 def make(task: str, policy: Any, out: str | Path, *, side: str | None = None, episodes: int, seed: int = 0, fmt: str = "auto", threads: int | None = None,
-         command: str = "", progress: Callable[[int], None] | None = None) -> dict:
+         command: str = "", progress: Callable[[int], None] | None = None, force: bool = False) -> dict:
     """Collects and writes a dataset into ``out`` (a new or empty folder), then
     ``out/dataset.json`` (last: a folder without it is unfinished), and returns what it says:
     task, policy, side, episodes, seed, steps, outcomes, format, collect and write seconds,
-    files and bytes."""
+    files and bytes.
+
+    With ``force`` an occupied ``out`` is replaced, but only once the new dataset is complete:
+    it is written into a folder beside ``out`` and swapped in, so a run that fails or is
+    interrupted leaves the earlier dataset as it was."""
     check_task(task)
     side = side or policy_side(policy)
     driver = _driver(policy, side)
@@ -247,8 +252,27 @@ def make(task: str, policy: Any, out: str | Path, *, side: str | None = None, ep
         raise ValueError(f"Minari's format holds one agent's view: a target policy on a task with one target ({', '.join(single_target_tasks())}); use npz")
     fmt = ("minari" if one_learner else "npz") if fmt == "auto" else fmt
     out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ValueError(f"--out {out}: not a new or empty folder")
+    occupied = out.exists() and (not out.is_dir() or any(out.iterdir()))
+    if occupied and not (force and out.is_dir()):
+        raise ValueError(f"--out {out}: not a new or empty folder" + ("" if force else " (--force replaces it)"))
+    if not occupied:
+        return _make_into(out, task, driver, side, episodes, seed, fmt, threads, command, progress)
+    staging = out.with_name(f".{out.name}.partial-{os.getpid()}")
+    shutil.rmtree(staging, ignore_errors=True)
+    try:
+        meta = _make_into(staging, task, driver, side, episodes, seed, fmt, threads, command, progress)
+        earlier = out.with_name(f".{out.name}.replaced-{os.getpid()}")
+        out.rename(earlier)
+        staging.rename(out)
+        shutil.rmtree(earlier, ignore_errors=True)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return meta
+
+
+def _make_into(out: Path, task: str, driver, side: str, episodes: int, seed: int, fmt: str, threads: int | None,
+               command: str, progress: Callable[[int], None] | None) -> dict:
+    """:func:`make`'s work, into ``out`` (new or empty)."""
     started = time.perf_counter()
     arrays = collect(task, driver, side, episodes=episodes, seed=seed, threads=threads, both_sides=fmt == "npz", progress=progress)
     collected = time.perf_counter() - started

@@ -24,7 +24,8 @@ standard; needs the [dataset] extra, Python >= 3.11): the dataset wolfpack/<task
 under DIR; read it with MINARI_DATASETS_PATH=DIR and minari.load_dataset(ID). Anything else
 (wolves; two targets; or --format npz) is written as the whole multi-agent trajectories in
 DIR/trajectories.npz (read with wolfpack.dataset.load_npz). Either way DIR/dataset.json says
-what is there (written last)."""
+what is there (written last). An occupied DIR is refused unless --force, which writes the new
+dataset beside it and swaps it in only once it is complete."""
 
 DATASET_EPILOG = """\
 examples:
@@ -46,7 +47,8 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="episode k is world S + k (default 0)")
     p.add_argument("--format", dest="fmt", choices=("auto", "minari", "npz"), default="auto", help="auto (default): Minari for a target on a one-target task, else npz")
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
-    p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="a new or empty folder")
+    p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="a new or empty folder (or --force)")
+    p.add_argument("--force", action="store_true", help="replace an occupied DIR, once the new dataset is complete (a failed run leaves the old one)")
     p.add_argument("--json", action="store_true", help="print dataset.json's content as one JSON object")
     p.set_defaults(func=cmd_dataset)
     return p
@@ -64,7 +66,7 @@ def cmd_dataset(args: argparse.Namespace, argv: Sequence[str]) -> None:
               f"episodes that end sooner take less)", file=sys.stderr)
     with tqdm(total=args.episodes, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{args.policy} on {args.task}") as bar:
         meta = dataset.make(args.task, args.policy, args.out, side=args.side, episodes=args.episodes, seed=args.seed, fmt=args.fmt, threads=args.threads,
-                            command=command, progress=bar.update)
+                            command=command, progress=bar.update, force=args.force)
     if args.json:
         print(json.dumps(meta))
         return
