@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::math::{atan2, unit, wrap, Vec2};
 use crate::observe::{target_dim, wolf_dim, Observer};
 use crate::policies::saturator::saturate;
-use crate::policies::Command;
+use crate::policies::{Command, WolfMemory};
 use crate::reward::{nearest_target_distance, nearest_wolf_distance, RewardState};
 use crate::world::{Layout, Outcome, World};
 
@@ -549,7 +549,7 @@ impl BatchEnv {
         for s in &mut self.slots {
             s.world.params = params.clone();
             if fresh_wolves {
-                s.world.wolf_memory.iter_mut().for_each(|m| *m = Default::default());
+                s.world.wolf_memory.iter_mut().for_each(|m| *m = WolfMemory::new(params.policies.wolves));
             }
             if fresh_targets {
                 s.world.target_memory.iter_mut().for_each(|m| *m = Default::default());

@@ -17,6 +17,7 @@ pub mod observe;
 pub mod policies;
 pub mod render;
 pub mod reward;
+pub mod scene;
 pub mod state;
 pub mod world;
 

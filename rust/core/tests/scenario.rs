@@ -146,7 +146,7 @@ fn failures() {
 fn trace() {
     use std::sync::Arc;
     use wolfpack_core::math::angle_of;
-    use wolfpack_core::policies::{avoidance, seed000, Snapshot};
+    use wolfpack_core::policies::{avoidance, seed000, Snapshot, WolfMemory};
     use wolfpack_core::World;
     let env = |k: &str, d: u64| std::env::var(k).ok().map(|s| s.parse().unwrap()).unwrap_or(d);
     let (seed, from, to) = (env("SEED", 1), env("FROM", 0) as u32, env("TO", 300) as u32);
@@ -173,7 +173,7 @@ fn trace() {
         let mut line = format!("t{t:3} T({:.2},{:.2})", targets[0].pos.x, targets[0].pos.y);
         for i in 0..wolves.len() {
             let mut row = vec![0u8; wolves.len() + 1];
-            let mut mem = mems[i];
+            let WolfMemory::Seed000(mut mem) = mems[i] else { unreachable!("the default scenario's wolves run seed000") };
             let nu1 = seed000::attraction(i, &snap, mem.last_attraction, &mut row);
             let nu2 = seed000::repulsion(i, &snap, nu1, &mut row);
             let s = &snap.params.seed000;

@@ -48,11 +48,21 @@
 
 use arrayvec::ArrayVec;
 
-use super::{DangerMemory, Snapshot};
+use super::Snapshot;
 use crate::config::{AvoidanceParams, KappaRow};
 use crate::math::{acos, angle_of, wrap, Vec2, FRAC_PI_2, PI, TAU};
 use crate::policies::saturator::{next_heading, saturate};
-use crate::world::{Obstacle, ObstacleKind};
+use crate::scene::{Obstacle, ObstacleKind};
+
+/// An emergency (SPEC §4) lasts several steps: what the avoidance of a law remembers between
+/// them (part of the memories of seed000, escape and random).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DangerMemory {
+    /// Steps of the current emergency still to run, this one included (0: none).
+    pub steps_left: u32,
+    /// Heading (rad) straight away from the dangerous interval's bisector.
+    pub away: f64,
+}
 
 /// Items kept per agent and step; more are dropped farthest first (12 obstacles + 4 walls +
 /// a few partners in the documented scenario).
@@ -140,7 +150,7 @@ pub fn collect_obstacles<'a>(p: Vec2, obstacles: impl IntoIterator<Item = &'a Ob
 
 /// Other wolves whose centre is closer than `range` (wolf `i` itself and coincident wolves
 /// excluded: no direction).
-pub fn collect_partners(i: usize, wolves: &[crate::world::AgentState], range: f64, half_angle: f64, items: &mut Items) {
+pub fn collect_partners(i: usize, wolves: &[crate::scene::AgentState], range: f64, half_angle: f64, items: &mut Items) {
     let p = wolves[i].pos;
     for (k, w) in wolves.iter().enumerate() {
         let d = (w.pos - p).norm();
@@ -411,7 +421,7 @@ pub fn wolf_mode(i: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut
     let me = snap.wolves[i];
     let mut items = Items::default();
     collect_walls(me.pos, &p.world.border, a.wall_range, &mut items);
-    collect_obstacles(me.pos, crate::world::near(snap.obstacles, snap.near, i), a.obstacle_range, &mut items);
+    collect_obstacles(me.pos, crate::scene::near(snap.obstacles, snap.near, i), a.obstacle_range, &mut items);
     collect_partners(i, snap.wolves, p.seed000.partner_range, p.seed000.partner_half_angle, &mut items);
 
     if early_exit(i, snap, &items) {
@@ -457,7 +467,7 @@ pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut Da
     let side = &p.agents.target;
     let mut items = Items::default();
     collect_walls(me.pos, &p.world.border, a.wall_range, &mut items);
-    collect_obstacles(me.pos, crate::world::near(snap.obstacles, snap.near, snap.wolves.len() + j), a.obstacle_range, &mut items);
+    collect_obstacles(me.pos, crate::scene::near(snap.obstacles, snap.near, snap.wolves.len() + j), a.obstacle_range, &mut items);
     let mut merged = Merged::empty();
     merged.fill(items.as_slice(), kappa_row(a, false, items.count()), a.wall_emergency);
 
@@ -488,8 +498,8 @@ pub fn target_variant(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::policies::DangerMemory;
-    use crate::world::AgentState;
+    use super::DangerMemory;
+    use crate::scene::AgentState;
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9

@@ -29,10 +29,10 @@
 use pathfinding::kuhn_munkres::kuhn_munkres_min;
 use pathfinding::matrix::Matrix;
 
-use super::{Snapshot, WolfMemory};
+use super::{Sighting, Snapshot};
 use crate::geometry::{edges, polygon_closest_point};
 use crate::math::{angle_of, cos, cross, sin, Point2, Vec2};
-use crate::world::Obstacle;
+use crate::scene::Obstacle;
 
 /// N hunting points on the circle of radius `r_h` around `target`, point k at angle 2πk/N.
 pub fn hunting_points(target: Vec2, n: usize, r_h: f64) -> Vec<Vec2> {
@@ -227,22 +227,30 @@ pub fn cell(i: usize, wolves: &[Vec2], obstacles: &[Obstacle], border: [f64; 4],
     (vec![wolves[i]], Vec::new())
 }
 
+/// What the bvc law carries from one step to the next for one wolf.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Memory {
+    pub sighting: Sighting,
+    /// The hunting point assigned at the last assignment.
+    pub point: Option<usize>,
+}
+
 /// The bvc law up to the saturator: wolf i's desired (v_d, θ_d).
-pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
+pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8]) -> (f64, f64) {
     let p = snap.params;
     let b = &p.bvc;
     let me = snap.wolves[i];
     let n = snap.wolves.len();
-    let Some(target_pos) = super::share_target_sighting(i, snap, mem).map(|t| t.pos) else {
+    let Some(target_pos) = mem.sighting.share(i, snap).map(|t| t.pos) else {
         return (0.0, me.theta);
     };
     let positions: Vec<Vec2> = snap.wolves.iter().map(|w| w.pos).collect();
     let points = hunting_points(target_pos, n, b.radius);
     let period = b.assignment_period.max(1);
-    if mem.bvc_point.is_none() || snap.t % period == 0 {
-        mem.bvc_point = Some(assign_memoised(&positions, &points)[i]);
+    if mem.point.is_none() || snap.t % period == 0 {
+        mem.point = Some(assign_memoised(&positions, &points)[i]);
     }
-    let hunt = points[mem.bvc_point.unwrap_or(i) % n];
+    let hunt = points[mem.point.unwrap_or(i) % n];
 
     let near_obstacle = snap.obstacles.iter().map(|o| o.distance(me.pos)).fold(f64::INFINITY, f64::min);
     let near_wolf = positions.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, q)| (q - me.pos).norm()).fold(f64::INFINITY, f64::min);

@@ -24,20 +24,26 @@
 
 use rand::Rng;
 
-use super::avoidance;
+use super::avoidance::{self, DangerMemory};
 use super::saturator::saturate;
-use super::{Command, Snapshot, TargetMemory};
+use super::{Command, Snapshot};
 use crate::config::EscapeParams;
 use crate::math::{angle_of, wrap, Vec2};
 
+/// What the `escape` and `random` laws carry from one step to the next for one target.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Memory {
+    pub danger: DangerMemory,
+}
+
 /// The `escape` law for target `j`.
-pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> Command {
+pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> Command {
     let (v_d, theta_d) = escape_desired(j, snap, mem, rng);
     saturate_target(j, snap, v_d, theta_d)
 }
 
 /// The `escape` law up to the saturator: the desired (v_d, θ_d) after avoidance.
-pub fn escape_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> (f64, f64) {
+pub fn escape_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> (f64, f64) {
     let (v_d, theta_d) = match snap.target_seen_at[j] {
         None => wander(snap.targets[j].theta, &snap.params.escape, rng),
         Some(t_seen) => flee(j, snap, t_seen),
@@ -46,13 +52,13 @@ pub fn escape_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory,
 }
 
 /// The `random` law for target `j`: the wander rule forever.
-pub fn random_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> Command {
+pub fn random_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> Command {
     let (v_d, theta_d) = random_desired(j, snap, mem, rng);
     saturate_target(j, snap, v_d, theta_d)
 }
 
 /// The `random` law up to the saturator.
-pub fn random_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> (f64, f64) {
+pub fn random_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> (f64, f64) {
     let (v_d, theta_d) = wander(snap.targets[j].theta, &snap.params.escape, rng);
     avoidance::target(j, snap, v_d, theta_d, &mut mem.danger)
 }
@@ -102,7 +108,7 @@ pub fn flee(j: usize, snap: &Snapshot, t_seen: u32) -> (f64, f64) {
 mod tests {
     use super::*;
     use crate::math::{PI, TAU};
-    use crate::world::{AgentState, Obstacle};
+    use crate::scene::{AgentState, Obstacle};
     use rand::RngCore;
 
     fn close(a: f64, b: f64) -> bool {
@@ -154,12 +160,12 @@ mod tests {
         // ω = (π/12)/0.1 = 2.61799, v = 0.75·(1 − 1/12) = 0.6875.
         let w = scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), None, 7);
         let mut rng = Fixed(vec![0.5, 0.75], 0);
-        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut rng);
+        let c = escape_command(0, &w.snap(), &mut Memory::default(), &mut rng);
         assert!(close(c.omega, PI / 12.0 / 0.1) && close(c.v, 0.6875), "{c:?}");
         assert_eq!(rng.1, 2, "two draws");
         // `random` wanders the same way even once seen.
         let w = scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7);
-        let c = random_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.5, 0.75], 0));
+        let c = random_command(0, &w.snap(), &mut Memory::default(), &mut Fixed(vec![0.5, 0.75], 0));
         assert!(close(c.omega, PI / 12.0 / 0.1) && close(c.v, 0.6875), "{c:?}");
     }
 
@@ -173,7 +179,7 @@ mod tests {
         let (v, th) = flee(0, &w.snap(), 0);
         assert!((v - 1.8).abs() < 1e-9 && close(th, 2f64.atan2(1.0)), "({v}, {th})");
         let mut rng = Fixed(vec![0.9], 0);
-        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut rng);
+        let c = escape_command(0, &w.snap(), &mut Memory::default(), &mut rng);
         assert!(close(c.omega, 7.0) && (c.v - 0.9713754).abs() < 1e-6, "{c:?}");
         assert_eq!(rng.1, 0, "no draws once seen");
     }
@@ -183,7 +189,7 @@ mod tests {
         // One wolf behind at (−1, 0), heading 0 = θ_d: no turn. Seen at 0, t = 120:
         // 0.9·(2 − 1/(1 + e^{−5})) = 0.906024.
         let w = scene(&[(-1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 120);
-        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
+        let c = escape_command(0, &w.snap(), &mut Memory::default(), &mut Fixed(vec![0.0], 0));
         assert!((c.v - 0.9060236).abs() < 1e-6 && close(c.omega, 0.0), "{c:?}");
     }
 
@@ -196,7 +202,7 @@ mod tests {
         let w = scene(&[(-4.0, 0.0)], a, Some(5), 110);
         let (v, th) = flee(0, &w.snap(), 5);
         assert!((v - 0.9635592).abs() < 1e-6 && close(th, 0.3), "({v}, {th})");
-        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
+        let c = escape_command(0, &w.snap(), &mut Memory::default(), &mut Fixed(vec![0.0], 0));
         assert!((c.v - 0.9635592).abs() < 1e-6 && c.omega == 0.0, "{c:?}");
     }
 
@@ -215,7 +221,7 @@ mod tests {
         // e = 2π − 0.6397 ≥ 2π − 0.7 → ω = 6.397.
         let mut w = scene(&[(-1.0, -0.1)], AgentState::at(0.0, 0.0, 0.05), Some(0), 200);
         w.obstacles.push(Obstacle::circle(Vec2::new(1.5, 0.0), 0.5, true));
-        let c = escape_command(0, &w.snap(), &mut TargetMemory::default(), &mut Fixed(vec![0.0], 0));
+        let c = escape_command(0, &w.snap(), &mut Memory::default(), &mut Fixed(vec![0.0], 0));
         let edge = 2.0 * (1.0f64 / 3.0).asin() + 0.01;
         assert!(close(c.omega, (edge - 0.05) / 0.1), "{c:?}");
     }

@@ -47,7 +47,7 @@ use pathfinding::undirected::connected_components::connected_components;
 use super::Snapshot;
 use crate::config::FormationParams;
 use crate::math::{angle_of, cos, sin, unit, Vec2};
-use crate::world::Obstacle;
+use crate::scene::Obstacle;
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -204,23 +204,29 @@ fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &For
     (target, Vec2::zeros())
 }
 
-fn velocity(a: &crate::world::AgentState) -> Vec2 {
+fn velocity(a: &crate::scene::AgentState) -> Vec2 {
     a.v * unit(a.theta)
 }
 
+/// What the formation law carries from one step to the next for one wolf.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Memory {
+    pub sighting: super::Sighting,
+}
+
 /// The formation law up to the saturator: wolf i's desired (v_d, θ_d).
-pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut super::WolfMemory, row: &mut [u8]) -> (f64, f64) {
+pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8]) -> (f64, f64) {
     let p = snap.params;
     let f = &p.formation;
     let me = snap.wolves[i];
     let n = snap.wolves.len();
-    let Some(seen) = super::share_target_sighting(i, snap, mem) else {
+    let Some(seen) = mem.sighting.share(i, snap) else {
         return (0.0, me.theta);
     };
     // While nobody senses the target, the pack heads for where it would be had it kept its
     // last sensed velocity (inside the arena), not for where it was last seen.
     let [x0, y0, x1, y1] = p.world.border;
-    let since = snap.t.saturating_sub(mem.last_seen_t) as f64 * p.world.ts;
+    let since = snap.t.saturating_sub(mem.sighting.t) as f64 * p.world.ts;
     let predicted = seen.pos + velocity(&seen) * since;
     let target_pos = Vec2::new(predicted.x.clamp(x0, x1), predicted.y.clamp(y0, y1));
     let centroid = snap.wolves.iter().map(|w| w.pos).sum::<Vec2>() / n as f64;

@@ -19,48 +19,55 @@ pub mod seed000;
 
 use rand::Rng;
 
-use crate::config::{Params, TargetPolicy, WolfPolicy};
-use crate::world::{AgentState, Obstacle};
+use crate::config::{TargetPolicy, WolfPolicy};
+use crate::scene::AgentState;
 
-// The laws' memories are data the world holds between steps: they live with the world's
-// state (world::memory), and the laws take them from there.
-pub use crate::world::memory::{DangerMemory, TargetMemory, WolfMemory};
+pub use crate::scene::{Command, Snapshot};
 
-/// What a controller asks of an agent for one step: linear speed v ≥ 0 and turn rate ω.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Command {
-    pub v: f64,
-    pub omega: f64,
+/// What a wolf's law carries from one step to the next: the configured law's own memory,
+/// defined beside it. The world holds one per wolf between steps and hands it back to the law.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WolfMemory {
+    Seed000(seed000::Memory),
+    Bvc(bvc::Memory),
+    Formation(formation::Memory),
 }
 
-/// The read-only state every controller sees at the start of a step (after obstacles moved).
-#[derive(Debug, Clone, Copy)]
-pub struct Snapshot<'a> {
-    pub params: &'a Params,
-    /// Steps completed before this one: 0 at the first step of an episode.
-    pub t: u32,
-    pub wolves: &'a [AgentState],
-    pub targets: &'a [AgentState],
-    pub obstacles: &'a [Obstacle],
-    /// The obstacles near each agent this step (wolves, then targets); `None` means "look at
-    /// every obstacle" — the same answers, only slower ([`crate::world::Neighbours`]).
-    pub near: Option<&'a crate::world::Neighbours>,
-    /// The target each wolf hunts (its nearest uncaptured target, re-picked every
-    /// `world.retarget_period` steps).
-    pub wolf_target: &'a [usize],
-    /// Wolf i senses its own target: distance ≤ `agents.wolf.sense_radius`.
-    pub wolf_senses: &'a [bool],
-    /// First step at which target j sensed a wolf (`None`: never yet).
-    pub target_seen_at: &'a [Option<u32>],
-    pub target_captured: &'a [bool],
+impl WolfMemory {
+    /// The memory of `law` before an episode's first step.
+    pub fn new(law: WolfPolicy) -> Self {
+        match law {
+            WolfPolicy::Seed000 => Self::Seed000(Default::default()),
+            WolfPolicy::Bvc => Self::Bvc(Default::default()),
+            WolfPolicy::Formation => Self::Formation(Default::default()),
+        }
+    }
+
+    /// The law this memory belongs to.
+    pub fn law(&self) -> WolfPolicy {
+        match self {
+            Self::Seed000(_) => WolfPolicy::Seed000,
+            Self::Bvc(_) => WolfPolicy::Bvc,
+            Self::Formation(_) => WolfPolicy::Formation,
+        }
+    }
 }
 
-/// The configured wolf law up to the saturator: wolf i's desired (v_d, θ_d).
+/// What a target's law carries from one step to the next (`escape` and `random` share it;
+/// `still` needs none).
+pub type TargetMemory = escape::Memory;
+
+/// The configured wolf law up to the saturator: wolf i's desired (v_d, θ_d). A memory of
+/// another law (the law was changed) starts afresh as the configured law's.
 pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
-    match snap.params.policies.wolves {
-        WolfPolicy::Seed000 => seed000::wolf_desired(i, snap, mem, row),
-        WolfPolicy::Bvc => bvc::wolf_desired(i, snap, mem, row),
-        WolfPolicy::Formation => formation::wolf_desired(i, snap, mem, row),
+    let law = snap.params.policies.wolves;
+    if mem.law() != law {
+        *mem = WolfMemory::new(law);
+    }
+    match mem {
+        WolfMemory::Seed000(m) => seed000::wolf_desired(i, snap, m, row),
+        WolfMemory::Bvc(m) => bvc::wolf_desired(i, snap, m, row),
+        WolfMemory::Formation(m) => formation::wolf_desired(i, snap, m, row),
     }
 }
 
@@ -77,16 +84,28 @@ pub fn target_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory,
     }
 }
 
-/// Global communication (SPEC §1.4) for the laws that hunt a position (bvc, formation): when
-/// any wolf hunting wolf i's target senses it, the whole pack learns the target's state and the
-/// step; returns the target as last sensed (None before any sighting).
-pub fn share_target_sighting(i: usize, snap: &Snapshot, mem: &mut WolfMemory) -> Option<AgentState> {
-    let target = snap.wolf_target[i];
-    if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
-        mem.known_target = Some(snap.targets[target]);
-        mem.last_seen_t = snap.t;
+/// The pack's last sighting of a wolf's target, for the laws that hunt a position (bvc,
+/// formation).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Sighting {
+    /// The target as the pack last sensed it (None before any sighting)...
+    pub target: Option<AgentState>,
+    /// ... and the step of that sighting (formation predicts where it went since).
+    pub t: u32,
+}
+
+impl Sighting {
+    /// Global communication (SPEC §1.4): when any wolf hunting wolf i's target senses it, the
+    /// whole pack learns the target's state and the step; returns the target as last sensed
+    /// (None before any sighting).
+    pub fn share(&mut self, i: usize, snap: &Snapshot) -> Option<AgentState> {
+        let target = snap.wolf_target[i];
+        if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
+            self.target = Some(snap.targets[target]);
+            self.t = snap.t;
+        }
+        self.target
     }
-    mem.known_target
 }
 
 /// The last call of a pure computation and its answer, for a per-thread memo: every wolf of a
@@ -130,7 +149,7 @@ impl<V: Clone> LastCall<V> {
 pub(crate) mod fixture {
     use super::Snapshot;
     use crate::config::Params;
-    use crate::world::{AgentState, Obstacle};
+    use crate::scene::{AgentState, Obstacle};
 
     pub struct Scene {
         pub params: Params,

@@ -19,14 +19,22 @@
 //! - A zero ν (nothing to do) keeps the current heading as θ_d, with v_d = 0.
 //! - Ties in distance go to the lower wolf index (deterministic, never a panic).
 
-use super::avoidance;
+use super::avoidance::{self, DangerMemory};
 use super::saturator::saturate;
-use super::{Command, Snapshot, WolfMemory};
+use super::{Command, Snapshot};
 use crate::math::{angle_of, pow, Vec2};
+
+/// What the seed000 law carries from one step to the next for one wolf.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Memory {
+    /// The previous step's attraction vector ν₁ (zero before the first step).
+    pub last_attraction: Vec2,
+    pub danger: DangerMemory,
+}
 
 /// The command of wolf `i` for this step. Marks in `row` (wolf i's row of the interaction
 /// matrix) every other wolf whose information the law used.
-pub fn wolf_command(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> Command {
+pub fn wolf_command(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8]) -> Command {
     let (v_d, theta_d) = wolf_desired(i, snap, mem, row);
     let p = snap.params;
     let side = &p.agents.wolf;
@@ -35,7 +43,7 @@ pub fn wolf_command(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [
 
 /// The law up to the saturator: the desired (v_d, θ_d) after obstacle avoidance. This is what
 /// a learner in `velocity` action mode imitates.
-pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
+pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8]) -> (f64, f64) {
     let p = snap.params;
     let s = &p.seed000;
     let me = snap.wolves[i];
@@ -141,7 +149,7 @@ mod tests {
     use super::*;
     use crate::math::{FRAC_PI_2, PI};
     use crate::policies::saturator::saturate;
-    use crate::world::AgentState;
+    use crate::scene::AgentState;
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9
@@ -228,7 +236,7 @@ mod tests {
         assert_eq!(a, Vec2::zeros());
         let r = repulsion(0, &w.snap(), a, &mut w.row());
         assert_eq!(r, Vec2::zeros());
-        let mut mem = WolfMemory::default();
+        let mut mem = Memory::default();
         let c = wolf_command(0, &w.snap(), &mut mem, &mut w.row());
         assert!(c.v.is_finite() && c.omega.is_finite(), "{c:?}");
     }
@@ -308,7 +316,7 @@ mod tests {
         let s = &w.params.seed000;
         let nu = Vec2::new(s.alpha * 2.7 / 2f64.powf(TAU1), -s.beta * 2.0 / 2f64.powf(TAU3));
         let want = saturate(nu.norm(), angle_of(nu), 0.0, 1.5, 7.0, 0.1);
-        let mut mem = WolfMemory::default();
+        let mut mem = Memory::default();
         let mut row = w.row();
         let c = wolf_command(0, &w.snap(), &mut mem, &mut row);
         assert!(close(c.v, want.v) && close(c.omega, want.omega), "{c:?} vs {want:?}");
@@ -325,7 +333,7 @@ mod tests {
         // First step, nothing sensed, no neighbour in range: ν = 0 → v = 0, ω = 0.
         let mut w = scene(&[(0.0, 0.0), (5.0, 5.0)], (9.0, -9.0));
         w.wolves[0].theta = FRAC_PI_2;
-        let c = wolf_command(0, &w.snap(), &mut WolfMemory::default(), &mut w.row());
+        let c = wolf_command(0, &w.snap(), &mut Memory::default(), &mut w.row());
         assert_eq!(c, Command { v: 0.0, omega: 0.0 });
     }
 
@@ -335,7 +343,7 @@ mod tests {
         // → v_max after the saturator when aligned).
         let mut w = scene(&[(0.0, 0.0)], (0.0, 2.0));
         w.wolves[0].theta = FRAC_PI_2;
-        let mut mem = WolfMemory::default();
+        let mut mem = Memory::default();
         wolf_command(0, &w.snap(), &mut mem, &mut w.row());
         assert!(mem.last_attraction.y > 0.0 && mem.last_attraction.x == 0.0);
         w.wolf_senses[0] = false;

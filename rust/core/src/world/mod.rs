@@ -1,18 +1,16 @@
 //! The world of SPEC §1: arena, agents, obstacles, sensing, one synchronous step.
 
 mod layout;
-pub mod memory;
-mod near;
-mod obstacles;
 mod spawn;
 mod expert;
 mod step;
 
 pub use expert::Desired;
 pub use layout::{Layout, LayoutObstacle};
-pub use memory::{DangerMemory, TargetMemory, WolfMemory};
-pub use near::{cull_distance, near, Near, Neighbours};
-pub use obstacles::{Obstacle, ObstacleKind};
+// The types the world shares with the laws live below both (crate::scene); the world's
+// users find them here as well.
+pub use crate::policies::{TargetMemory, WolfMemory};
+pub use crate::scene::{cull_distance, near, AgentState, Near, Neighbours, Obstacle, ObstacleKind};
 
 use std::sync::Arc;
 
@@ -23,27 +21,7 @@ use crate::config::Params;
 use crate::error::Result;
 use crate::geometry::{body_triangle, BodyFrame};
 use crate::math::{sin_cos, Vec2};
-use crate::policies::Command;
-
-/// Pose and last command of one unicycle agent, plus its accumulated energy.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct AgentState {
-    pub pos: Vec2,
-    /// Heading in [0, 2π).
-    pub theta: f64,
-    /// Linear speed executed in the last step (m/s).
-    pub v: f64,
-    /// Turn rate executed in the last step (rad/s).
-    pub omega: f64,
-    /// Σ ½ m v² over the steps so far (J; per step, no Ts factor — SPEC §1.2).
-    pub energy: f64,
-}
-
-impl AgentState {
-    pub fn at(x: f64, y: f64, theta: f64) -> Self {
-        Self { pos: Vec2::new(x, y), theta: crate::math::wrap(theta), ..Default::default() }
-    }
-}
+use crate::scene::Command;
 
 /// How an episode ended (SPEC §1.5 step 4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -207,6 +185,7 @@ impl World {
 
     fn assemble(params: Arc<Params>, seed: u64, episode: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
         let (n, m) = (wolves.len(), targets.len());
+        let wolf_law = params.policies.wolves;
         let mut w = Self {
             params,
             t: 0,
@@ -221,7 +200,7 @@ impl World {
             target_capture_step: vec![None; m],
             target_cornered_step: vec![None; m],
             target_ended_cornered: vec![false; m],
-            wolf_memory: vec![WolfMemory::default(); n],
+            wolf_memory: vec![WolfMemory::new(wolf_law); n],
             target_memory: vec![TargetMemory::default(); m],
             interaction: vec![0; (n + m) * (n + m)],
             collisions: vec![0; n + m],

@@ -8,7 +8,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::layout::{v2, Layout, LayoutObstacle};
-use super::obstacles::PolygonDraw;
+use crate::scene::PolygonDraw;
 use super::{AgentState, Obstacle};
 use crate::config::Params;
 use crate::error::{Error, Result};
