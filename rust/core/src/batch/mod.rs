@@ -11,19 +11,33 @@
 //!   step returns the new episode's first observation, the finished episode's last observation
 //!   in `final_obs_*`, and the finished episode's infos.
 //! - Every step returns fresh output vectors (the binding hands them to numpy without copying).
+//!
+//! | module | its one job |
+//! |---|---|
+//! | this one | the API: [`BatchEnv`], its worlds ([`Slot`]s) and the step of one world |
+//! | `schedule` | spreading a step's worlds over the caller and the crew ([`crate::crew`]) |
+//! | `output` | the layout of a step's outputs ([`StepOutput`]) and each world's pieces of it |
+//! | `actions` | a learner's action ↔ a command ([`decode`], [`encode`]) |
 
-use std::mem::MaybeUninit;
+mod actions;
+mod output;
+mod schedule;
+
+pub use actions::{decode, encode};
+pub use output::{outcome_code, StepOutput};
+
+use output::{write_infos, OutPieces, SlotOut};
+use schedule::{par_for, share, Disjoint};
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-use crate::config::{ActionMode, Params};
+use crate::config::Params;
 use crate::crew::Crew;
 use crate::error::{Error, Result};
-use crate::math::{atan2, unit, wrap, Vec2};
 use crate::observe::{target_dim, wolf_dim, Observer};
-use crate::policies::saturator::saturate;
 use crate::policies::{Command, WolfMemory};
-use crate::reward::{nearest_target_distance, nearest_wolf_distance, RewardState};
+use crate::reward::RewardState;
 use crate::world::{Layout, Outcome, World};
 
 /// Which side learns; the other is scripted.
@@ -55,50 +69,6 @@ impl Learners {
     }
 }
 
-/// The outputs of one reset or step, for the whole batch (row-major, world first).
-#[derive(Debug, Clone, Default)]
-pub struct StepOutput {
-    /// [E, N, Dw] when wolves learn, else empty.
-    pub obs_wolves: Vec<f32>,
-    /// [E, M, Dt] when targets learn, else empty.
-    pub obs_targets: Vec<f32>,
-    /// [E, N] / [E, M], both sides always (the scripted side's too, for evaluation).
-    pub rewards_wolves: Vec<f32>,
-    pub rewards_targets: Vec<f32>,
-    /// `[E]`: the episode ended by capture (or cornering, where it counts) or collision / by
-    /// the step limit.
-    pub terminated: Vec<bool>,
-    pub truncated: Vec<bool>,
-    /// Last observation of an episode that ended this step (autoreset only; zeros elsewhere).
-    pub final_obs_wolves: Vec<f32>,
-    pub final_obs_targets: Vec<f32>,
-    /// Infos of the episode this step belongs to (the finished one on an autoreset).
-    /// `[E]`: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout, 4 cornered.
-    pub outcome: Vec<u8>,
-    /// `[E]`: steps taken in the episode.
-    pub steps: Vec<u32>,
-    /// [E, M]: step at which each target was captured (or, with `capture.cornered`,
-    /// cornered), −1 if not.
-    pub capture_step: Vec<i64>,
-    /// [E, M]: the first step at which each target was cornered (SPEC §6), −1 if never.
-    pub cornered_step: Vec<i64>,
-    /// [E, N+M]: accumulated energy (J), collision steps, and distance to the nearest
-    /// uncaptured target (wolves; -1 when none is left) / nearest wolf (targets).
-    pub energy: Vec<f64>,
-    pub collisions: Vec<u32>,
-    pub distance: Vec<f64>,
-}
-
-pub fn outcome_code(o: Outcome) -> u8 {
-    match o {
-        Outcome::Running => 0,
-        Outcome::Captured => 1,
-        Outcome::Collision => 2,
-        Outcome::Timeout => 3,
-        Outcome::Cornered => 4,
-    }
-}
-
 /// Batches of fewer worlds step on the caller's thread whatever the thread count
 /// (`BatchEnv::steps_inline`).
 pub const INLINE_BELOW: usize = 8;
@@ -107,11 +77,6 @@ pub const INLINE_BELOW: usize = 8;
 /// (an atomic update, ≈ 20 ns unless another thread is stealing from the same run) every 16
 /// worlds is free, and a thread that runs out steals at most ≈ 50 µs of work at a time.
 const MAX_CHUNK: usize = 16;
-/// Below this many items a job does not wake the crew's parked members ([`Crew::run_with`]):
-/// 32 worlds are ≈ 150 µs of one thread's stepping, several times a member's wake-up on a VM
-/// (tens of µs), so a member woken for them still finds worlds to step; fewer are done, or
-/// nearly, by the time it comes.
-const WAKE_FROM: usize = 32;
 
 /// Worlds per thread from which a step asks the CPU to load each next world's memory while it
 /// steps the current one ([`Slot::prefetch`]). Below, a thread's worlds are still in the
@@ -162,44 +127,6 @@ impl Slot {
         self.rewards.prefetch();
         crate::math::prefetch_slice(&self.wolf_cmds);
         crate::math::prefetch_slice(&self.target_cmds);
-    }
-}
-
-/// One world's share of a [`StepOutput`].
-struct SlotOut<'a> {
-    obs_w: &'a mut [f32],
-    obs_t: &'a mut [f32],
-    rew_w: &'a mut [f32],
-    rew_t: &'a mut [f32],
-    term: &'a mut bool,
-    trunc: &'a mut bool,
-    fin_w: &'a mut [f32],
-    fin_t: &'a mut [f32],
-    outcome: &'a mut u8,
-    steps: &'a mut u32,
-    capture_step: &'a mut [i64],
-    cornered_step: &'a mut [i64],
-    energy: &'a mut [f64],
-    collisions: &'a mut [u32],
-    distance: &'a mut [f64],
-}
-
-/// The lengths of a step's observation arrays, the wolves' and the targets', while their
-/// worlds' tasks fill them ([`BatchEnv::alloc`]).
-#[derive(Debug, Clone, Copy)]
-struct ObsLens([usize; 2]);
-
-impl ObsLens {
-    /// Gives the two arrays of `o` their lengths.
-    ///
-    /// # Safety
-    /// The first `len` elements of each array's spare capacity must have been written.
-    unsafe fn set(self, o: &mut StepOutput) {
-        for (v, len) in [&mut o.obs_wolves, &mut o.obs_targets].into_iter().zip(self.0) {
-            debug_assert!(v.is_empty() && v.capacity() >= len);
-            // SAFETY: capacity ≥ len (`alloc`), and the caller vouches for the contents.
-            unsafe { v.set_len(len) };
-        }
     }
 }
 
@@ -412,42 +339,6 @@ impl BatchEnv {
         out
     }
 
-    /// A step's outputs, the two observation arrays allocated but still empty: their lengths
-    /// come back separately, and each world's task zeroes and fills its own pieces
-    /// ([`OutPieces::world`]). Zeroing them here, on the caller's thread, cost ≈ 5 % of a
-    /// two-thread step: the caller wrote every line before the other thread wrote it again.
-    /// The final observations stay `calloc`'d: a world writes its piece only when its episode
-    /// ends. (The allocators reuse the last step's blocks and clear them with a `memset`, 3 % of
-    /// a one-thread step at E = 8,192; zeroing them in the worlds' tasks instead, as for the
-    /// observations, measured no faster on one thread or two: BENCHMARKS.md, "Optimisations".)
-    fn alloc(&self) -> (StepOutput, ObsLens) {
-        let e = self.slots.len();
-        let (n, m) = (self.n_wolves(), self.n_targets());
-        let dw = if self.learners.wolves() { n * self.wolf_obs_dim() } else { 0 };
-        let dt = if self.learners.targets() { m * self.target_obs_dim() } else { 0 };
-        // Rewards of both sides, always: evaluation reports the scripted side's return too.
-        let (rw, rt) = (n, m);
-        let lens = ObsLens([e * dw, e * dt]);
-        let out = StepOutput {
-            obs_wolves: Vec::with_capacity(lens.0[0]),
-            obs_targets: Vec::with_capacity(lens.0[1]),
-            rewards_wolves: vec![0.0; e * rw],
-            rewards_targets: vec![0.0; e * rt],
-            terminated: vec![false; e],
-            truncated: vec![false; e],
-            final_obs_wolves: if self.autoreset { vec![0.0; e * dw] } else { Vec::new() },
-            final_obs_targets: if self.autoreset { vec![0.0; e * dt] } else { Vec::new() },
-            outcome: vec![0; e],
-            steps: vec![0; e],
-            capture_step: vec![-1; e * m],
-            cornered_step: vec![-1; e * m],
-            energy: vec![0.0; e * (n + m)],
-            collisions: vec![0; e * (n + m)],
-            distance: vec![0.0; e * (n + m)],
-        };
-        (out, lens)
-    }
-
     /// Checks an action array of one side: its length and that every entry is finite. The
     /// error names the world and the agent.
     fn check_actions(&self, actions: &[f32], side: &str, per_world: usize) -> Result<()> {
@@ -605,270 +496,6 @@ impl BatchEnv {
     }
 }
 
-/// Maps `f` over `items` on `participants` threads (see [`par_for`]); the results come back
-/// in item order, so nothing depends on which thread ran what.
-fn share<T: Send, R: Send>(crew: Option<&mut Crew>, participants: usize, items: Vec<T>, chunk: usize, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    let n = items.len();
-    let mut items: Vec<Option<T>> = items.into_iter().map(Some).collect();
-    let mut results: Vec<Option<R>> = std::iter::repeat_with(|| None).take(n).collect();
-    let (cells, out) = (Disjoint::new(&mut items), Disjoint::new(&mut results));
-    par_for(crew, participants, n, chunk, |_| {}, |i| {
-        // SAFETY: par_for hands out each index once.
-        let (item, result) = unsafe { (cells.item(i), out.item(i)) };
-        *result = item.take().map(&f);
-    });
-    results.into_iter().map(|r| r.expect("par_for calls f once for every index")).collect()
-}
-
-/// Calls `f(i)` once for every `i` in `0..n`, on `participants` threads: the calling thread
-/// and the members of `crew` ([`Crew::run`]; the caller alone without one, or with one
-/// participant). Indices are claimed in chunks of `chunk`. Before `f` takes an index, the
-/// index the same thread will take next is hinted to `ahead` (the step uses it to start
-/// loading the next world's memory, [`Slot::prefetch`]); a thread claims its next chunk before
-/// the last index of the current one, so what it hints is always its own.
-///
-/// Each participant has a home share of the chunks — a contiguous run, the same run every
-/// call — and takes its own chunks first, front to back; one that runs out takes the last
-/// chunk of the participant with the most left ([`HomeRuns`], lock-free). So a world is stepped
-/// by the same thread step after step and its memory stays in that core's cache, while a slow
-/// world (one that spawns its next episode) is still balanced out. (With one shared queue the
-/// worlds moved between the cores every step: two threads stepped 64 worlds 1.4× as fast as
-/// one, against 2.0× for two separate batches of 32.)
-///
-/// Only indices are handed out: each task finds its world and its pieces of the outputs from
-/// the index ([`Disjoint`], [`OutPieces`]). Building a list of per-world items and output
-/// slices first was serial work on the caller, ≈ 6 % of a two-thread step at E = 8192.
-///
-/// Why not `pool.install(par_iter)`: the caller (Python's thread) then only waits, and every
-/// step pays for waking all workers and for waking the caller again (≈ 40–80 µs on this VM,
-/// as much as 16 worlds' work); here the caller starts at once and the crew's members join as
-/// they wake, or not at all for fewer than [`WAKE_FROM`] items (see [`crate::crew`] for why
-/// not a rayon scope).
-fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, chunk: usize, ahead: impl Fn(usize) + Sync, f: impl Fn(usize) + Sync) {
-    let crew = match crew {
-        Some(c) if participants > 1 && n > 0 => c,
-        // One thread: the caller's, with no crew to hand anything to.
-        _ => {
-            for i in 0..n {
-                if i + 1 < n {
-                    ahead(i + 1);
-                }
-                f(i);
-            }
-            return;
-        }
-    };
-    let runs = HomeRuns::new(n, chunk, participants);
-    // Participant `home` (the caller 0, crew member w its w) drains its home run, then helps.
-    // It claims its next chunk before it runs the last index of the current one, so that the
-    // index it hints is always one it holds (a world another thread steps is never touched).
-    crew.run_with(&|home: usize| {
-        let mut current = runs.take(home);
-        while let Some(range) = current {
-            let next = runs.take(home);
-            for i in range.clone() {
-                let hint = if i + 1 < range.end { Some(i + 1) } else { next.as_ref().map(|r| r.start) };
-                if let Some(h) = hint {
-                    ahead(h);
-                }
-                f(i);
-            }
-            current = next;
-        }
-    }, n >= WAKE_FROM);
-}
-
-/// Shared access, from many threads, to distinct elements of a slice borrowed for `'a`: the
-/// callers promise (unsafely) that no element is taken twice at once — [`par_for`] hands out
-/// each index once.
-struct Disjoint<'a, T> {
-    ptr: *mut T,
-    len: usize,
-    _borrow: std::marker::PhantomData<&'a mut [T]>,
-}
-
-// SAFETY: a Disjoint is a `&mut [T]` whose elements go to different threads.
-unsafe impl<T: Send> Send for Disjoint<'_, T> {}
-unsafe impl<T: Send> Sync for Disjoint<'_, T> {}
-
-impl<'a, T> Disjoint<'a, T> {
-    fn new(s: &'a mut [T]) -> Self {
-        Self { ptr: s.as_mut_ptr(), len: s.len(), _borrow: std::marker::PhantomData }
-    }
-
-    /// Element `i`.
-    ///
-    /// # Safety
-    /// No other reference to element `i` may be alive while this one is.
-    #[inline]
-    unsafe fn item(&self, i: usize) -> &'a mut T {
-        assert!(i < self.len, "index {i} of {}", self.len);
-        // SAFETY: in bounds; exclusive by the caller's promise.
-        unsafe { &mut *self.ptr.add(i) }
-    }
-
-    /// Elements `i·per .. (i+1)·per` (empty when `per` is 0).
-    ///
-    /// # Safety
-    /// No other reference to any of these elements may be alive while this one is.
-    #[inline]
-    unsafe fn piece(&self, i: usize, per: usize) -> &'a mut [T] {
-        if per == 0 {
-            return &mut [];
-        }
-        assert!((i + 1) * per <= self.len, "piece {i} of {per} in {}", self.len);
-        // SAFETY: in bounds; exclusive by the caller's promise.
-        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(i * per), per) }
-    }
-}
-
-/// A step's outputs as every world's pieces ([`OutPieces::world`]), each found from the world's
-/// index by the task that steps it.
-struct OutPieces<'a> {
-    obs_w: Disjoint<'a, MaybeUninit<f32>>,
-    obs_t: Disjoint<'a, MaybeUninit<f32>>,
-    rew_w: Disjoint<'a, f32>,
-    rew_t: Disjoint<'a, f32>,
-    term: Disjoint<'a, bool>,
-    trunc: Disjoint<'a, bool>,
-    fin_w: Disjoint<'a, f32>,
-    fin_t: Disjoint<'a, f32>,
-    outcome: Disjoint<'a, u8>,
-    steps: Disjoint<'a, u32>,
-    capture_step: Disjoint<'a, i64>,
-    cornered_step: Disjoint<'a, i64>,
-    energy: Disjoint<'a, f64>,
-    collisions: Disjoint<'a, u32>,
-    distance: Disjoint<'a, f64>,
-    /// Per world: obs, rewards and final obs of each side; targets; agents.
-    per: [usize; 8],
-}
-
-impl<'a> OutPieces<'a> {
-    /// The pieces of `o` (from [`BatchEnv::alloc`], observation arrays `lens` long) for `e`
-    /// worlds of `n` wolves and `m` targets.
-    fn new(o: &'a mut StepOutput, lens: ObsLens, e: usize, n: usize, m: usize) -> Self {
-        let per = |v: usize| v.checked_div(e).unwrap_or(0);
-        let [dw, dt] = lens.0.map(per);
-        let per = [dw, dt, per(o.rewards_wolves.len()), per(o.rewards_targets.len()), per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()), m, n + m];
-        let unfilled = |v: &'a mut Vec<f32>, len: usize| Disjoint::new(&mut v.spare_capacity_mut()[..len]);
-        Self {
-            obs_w: unfilled(&mut o.obs_wolves, lens.0[0]),
-            obs_t: unfilled(&mut o.obs_targets, lens.0[1]),
-            rew_w: Disjoint::new(&mut o.rewards_wolves),
-            rew_t: Disjoint::new(&mut o.rewards_targets),
-            term: Disjoint::new(&mut o.terminated),
-            trunc: Disjoint::new(&mut o.truncated),
-            fin_w: Disjoint::new(&mut o.final_obs_wolves),
-            fin_t: Disjoint::new(&mut o.final_obs_targets),
-            outcome: Disjoint::new(&mut o.outcome),
-            steps: Disjoint::new(&mut o.steps),
-            capture_step: Disjoint::new(&mut o.capture_step),
-            cornered_step: Disjoint::new(&mut o.cornered_step),
-            energy: Disjoint::new(&mut o.energy),
-            collisions: Disjoint::new(&mut o.collisions),
-            distance: Disjoint::new(&mut o.distance),
-            per,
-        }
-    }
-
-    /// World `i`'s pieces, its observation pieces zeroed here (by the world's own task, not
-    /// by the caller before the tasks start: see [`BatchEnv::alloc`]).
-    ///
-    /// # Safety
-    /// No other reference to world `i`'s pieces may be alive while these are.
-    #[inline]
-    unsafe fn world(&self, i: usize) -> SlotOut<'a> {
-        let [dw, dt, rw, rt, fw, ft, m, agents] = self.per;
-        let zeroed = |piece: &'a mut [MaybeUninit<f32>]| {
-            piece.fill(MaybeUninit::new(0.0));
-            // SAFETY: every element was just written; MaybeUninit<f32> has f32's layout.
-            unsafe { &mut *(piece as *mut [MaybeUninit<f32>] as *mut [f32]) }
-        };
-        // SAFETY: distinct worlds' pieces are disjoint; world i's are exclusive by the caller.
-        unsafe {
-            SlotOut {
-                obs_w: zeroed(self.obs_w.piece(i, dw)),
-                obs_t: zeroed(self.obs_t.piece(i, dt)),
-                rew_w: self.rew_w.piece(i, rw),
-                rew_t: self.rew_t.piece(i, rt),
-                term: self.term.item(i),
-                trunc: self.trunc.item(i),
-                fin_w: self.fin_w.piece(i, fw),
-                fin_t: self.fin_t.piece(i, ft),
-                outcome: self.outcome.item(i),
-                steps: self.steps.item(i),
-                capture_step: self.capture_step.piece(i, m),
-                cornered_step: self.cornered_step.piece(i, m),
-                energy: self.energy.piece(i, agents),
-                collisions: self.collisions.piece(i, agents),
-                distance: self.distance.piece(i, agents),
-            }
-        }
-    }
-}
-
-/// The chunks of [`par_for`]: chunk k is indices `k·chunk .. min((k+1)·chunk, n)`, and
-/// participant p's home is the run `front..back` of the chunks it has not taken (one atomic
-/// word per home, on a cache line of its own: taking one's own next chunk touches no line
-/// another thread writes, unless that thread is stealing from it).
-struct HomeRuns {
-    n: usize,
-    chunk: usize,
-    homes: Vec<HomeRun>,
-}
-
-/// `front << 32 | back`, in chunks.
-#[repr(align(64))]
-struct HomeRun(std::sync::atomic::AtomicU64);
-
-fn pack(front: usize, back: usize) -> u64 {
-    ((front as u64) << 32) | back as u64
-}
-
-fn unpack(v: u64) -> (usize, usize) {
-    ((v >> 32) as usize, (v & 0xffff_ffff) as usize)
-}
-
-impl HomeRuns {
-    /// `0..n` in chunks of `chunk` (at least 1), dealt in order to `participants` homes of as
-    /// equal a count of chunks as can be.
-    fn new(n: usize, chunk: usize, participants: usize) -> Self {
-        let chunk = chunk.max(1);
-        let c = n.div_ceil(chunk);
-        assert!(c < 1 << 32, "{c} chunks");
-        let homes = (0..participants).map(|p| HomeRun(std::sync::atomic::AtomicU64::new(pack(p * c / participants, (p + 1) * c / participants)))).collect();
-        Self { n, chunk, homes }
-    }
-
-    /// The next chunk for participant `home` (taken modulo the participants): the front of its
-    /// own run, else the back of the longest run left; `None` when every chunk is taken.
-    fn take(&self, home: usize) -> Option<std::ops::Range<usize>> {
-        let own = &self.homes[home % self.homes.len()].0;
-        let mut v = own.load(Ordering::Acquire);
-        let k = loop {
-            let (front, back) = unpack(v);
-            if front < back {
-                match own.compare_exchange_weak(v, pack(front + 1, back), Ordering::AcqRel, Ordering::Acquire) {
-                    Ok(_) => break front,
-                    Err(now) => v = now,
-                }
-                continue;
-            }
-            // Own run done: the back of the longest run left (the lowest-numbered of equals).
-            let (victim, (f, b)) = self.homes.iter().map(|h| unpack(h.0.load(Ordering::Acquire))).enumerate().max_by_key(|&(p, (f, b))| (b.saturating_sub(f), std::cmp::Reverse(p)))?;
-            if f >= b {
-                return None;
-            }
-            if self.homes[victim].0.compare_exchange(pack(f, b), pack(f, b - 1), Ordering::AcqRel, Ordering::Acquire).is_ok() {
-                break b - 1;
-            }
-            v = own.load(Ordering::Acquire);
-        };
-        Some(k * self.chunk..((k + 1) * self.chunk).min(self.n))
-    }
-}
-
 fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layout>) -> Result<Slot> {
     let mut world = match layout {
         Some(l) => World::from_layout_episode(params.clone(), seed, episode, l)?,
@@ -941,74 +568,9 @@ fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
     }
 }
 
-fn write_infos(w: &World, o: &mut SlotOut) {
-    *o.outcome = outcome_code(w.outcome);
-    *o.steps = w.t;
-    for (c, s) in o.capture_step.iter_mut().zip(&w.target_capture_step) {
-        *c = s.map_or(-1, i64::from);
-    }
-    for (c, s) in o.cornered_step.iter_mut().zip(&w.target_cornered_step) {
-        *c = s.map_or(-1, i64::from);
-    }
-    let (energy, collisions, distance) = (&mut *o.energy, &mut *o.collisions, &mut *o.distance);
-    let n = w.n_wolves();
-    for (k, e) in energy.iter_mut().enumerate() {
-        *e = if k < n { w.wolves[k].energy } else { w.targets[k - n].energy };
-    }
-    collisions.copy_from_slice(&w.collisions);
-    for (k, d) in distance.iter_mut().enumerate() {
-        *d = if k < n {
-            let x = nearest_target_distance(w, k);
-            // -1 when no target is left (like capture_step's -1): infos stay finite, so
-            // loggers and running means never meet a NaN.
-            if x.is_finite() {
-                x
-            } else {
-                -1.0
-            }
-        } else {
-            nearest_wolf_distance(w, k - n)
-        };
-    }
-}
-
-/// A learner's action → command. Unicycle: v = (a₀+1)/2·v_max, ω = a₁·ω_max. Velocity: a is
-/// a desired velocity in the agent frame in units of v_max (norm capped at 1), through the
-/// saturator. Actions are clipped to [-1, 1] first.
-pub fn decode(mode: ActionMode, theta: f64, a0: f32, a1: f32, v_max: f64, omega_max: f64, ts: f64) -> Command {
-    let (a0, a1) = ((a0 as f64).clamp(-1.0, 1.0), (a1 as f64).clamp(-1.0, 1.0));
-    match mode {
-        ActionMode::Unicycle => Command { v: (a0 + 1.0) * 0.5 * v_max, omega: a1 * omega_max },
-        ActionMode::Velocity => {
-            let a = Vec2::new(a0, a1);
-            let r = a.norm();
-            let theta_d = if r > 0.0 { wrap(theta + atan2(a1, a0)) } else { theta };
-            saturate(r.min(1.0) * v_max, theta_d, theta, v_max, omega_max, ts)
-        }
-    }
-}
-
-/// The inverse of [`decode`] for a law's desired (v_d, θ_d): unicycle encodes the saturated
-/// command; velocity encodes the desired velocity itself (a zero speed keeps its direction as
-/// a 1e-6 norm, so that the saturator still turns).
-pub fn encode(mode: ActionMode, theta: f64, v_d: f64, theta_d: f64, v_max: f64, omega_max: f64, ts: f64) -> [f32; 2] {
-    match mode {
-        ActionMode::Unicycle => {
-            let c = saturate(v_d, theta_d, theta, v_max, omega_max, ts);
-            [((2.0 * c.v / v_max - 1.0).clamp(-1.0, 1.0)) as f32, ((c.omega / omega_max).clamp(-1.0, 1.0)) as f32]
-        }
-        ActionMode::Velocity => {
-            let r = (v_d / v_max).clamp(1e-6, 1.0);
-            let a = unit(theta_d - theta) * r;
-            [a.x as f32, a.y as f32]
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::time::Duration;
 
     /// The batch's worlds place only the polygons their agents can reach or see: every
     /// observation it writes must equal, bit for bit, the observation of the same world with
@@ -1055,106 +617,5 @@ mod tests {
         // world() hands out every polygon placed.
         assert!(env.world(0).unwrap().obstacles.iter().all(|o| o.placed));
     }
-
-    #[test]
-    fn share_maps_in_item_order_whatever_the_threads_and_chunks() {
-        let mut crew = Crew::new(2).unwrap();
-        let want: Vec<usize> = (0..1000).map(|k| 3 * k).collect();
-        for (participants, chunk) in [(1, 1), (2, 7), (3, 16), (3, 1000)] {
-            assert_eq!(share(Some(&mut crew), participants, (0..1000).collect(), chunk, |k: usize| 3 * k), want, "{participants} threads, chunk {chunk}");
-        }
-        assert_eq!(share(None, 2, (0..10).collect(), 3, |k: usize| k), (0..10).collect::<Vec<_>>());
-    }
-
-    #[test]
-    fn each_participant_takes_its_home_chunks_first_then_the_back_of_the_longest_run() {
-        // 10 indices in chunks of 2: chunks 0..5 start at 0, 2, 4, 6, 8; homes of 2
-        // participants are chunks 0..2 and 2..5.
-        let q = HomeRuns::new(10, 2, 2);
-        assert_eq!(q.take(1), Some(4..6));
-        assert_eq!(q.take(0), Some(0..2));
-        assert_eq!(q.take(0), Some(2..4));
-        // Participant 0's run is done: it takes the last chunk of participant 1's.
-        assert_eq!(q.take(0), Some(8..10));
-        assert_eq!(q.take(1), Some(6..8));
-        assert_eq!(q.take(1), None);
-        assert_eq!(q.take(0), None);
-        // Homes beyond the participants wrap; a last short chunk; more participants than
-        // chunks: every index is still handed out exactly once.
-        for (participants, chunk, n) in [(3, 1, 2), (4, 3, 10), (2, 1, 0), (5, 7, 100)] {
-            let q = HomeRuns::new(n, chunk, participants);
-            let mut seen = Vec::new();
-            for round in 0.. {
-                match q.take(round * 7) {
-                    Some(range) => {
-                        assert!(!range.is_empty() && range.len() <= chunk && range.start % chunk == 0);
-                        seen.extend(range);
-                    }
-                    None => break,
-                }
-            }
-            seen.sort_unstable();
-            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "{participants} participants, chunk {chunk}, {n} indices");
-        }
-    }
-
-    #[test]
-    fn par_for_hints_each_index_once_just_before_the_one_it_runs_before_it() {
-        let log = Mutex::new(Vec::new());
-        let push = |s: String| log.lock().unwrap().push(s);
-        par_for(None, 1, 5, 5, |next| push(format!("ahead {next}")), |i| push(format!("run {i}")));
-        let want = ["ahead 1", "run 0", "ahead 2", "run 1", "ahead 3", "run 2", "ahead 4", "run 3", "run 4"];
-        assert_eq!(*log.lock().unwrap(), want);
-        // Threads: every index runs once, and the index a thread hints is the next one that
-        // same thread runs (a world that another thread may be stepping is never touched).
-        let mut crew = Crew::new(2).unwrap();
-        for (n, chunk) in [(100, 7), (64, 1), (5, 16), (1000, 3)] {
-            let events = Mutex::new(Vec::new());
-            let me = || format!("{:?}", std::thread::current().id());
-            par_for(Some(&mut crew), 3, n, chunk, |next| events.lock().unwrap().push((me(), true, next)), |i| {
-                // Long enough for the threads to interleave and to steal from each other.
-                std::thread::sleep(Duration::from_micros(if i % 5 == 0 { 200 } else { 20 }));
-                events.lock().unwrap().push((me(), false, i));
-            });
-            let events = events.into_inner().unwrap();
-            let mut ran: Vec<usize> = events.iter().filter(|e| !e.1).map(|e| e.2).collect();
-            ran.sort_unstable();
-            assert_eq!(ran, (0..n).collect::<Vec<_>>(), "n {n}, chunk {chunk}: each index once");
-            let mut threads: Vec<String> = events.iter().map(|e| e.0.clone()).collect();
-            threads.sort();
-            threads.dedup();
-            for t in threads {
-                let mine: Vec<(bool, usize)> = events.iter().filter(|e| e.0 == t).map(|e| (e.1, e.2)).collect();
-                for (k, &(hint, h)) in mine.iter().enumerate() {
-                    if hint {
-                        // ahead h, run i, then the thread's next run is h.
-                        let next_run = mine[k + 1..].iter().filter(|e| !e.0).nth(1).map(|e| e.1);
-                        assert_eq!(next_run, Some(h), "n {n}, chunk {chunk}: thread {t} hinted {h}: {mine:?}");
-                    }
-                }
-            }
-        }
-        par_for(Some(&mut crew), 3, 0, 4, |_| panic!("nothing to hint"), |_| panic!("nothing to run"));
-    }
-
-    /// A task that panics on a worker reaches the caller as a panic (the binding turns it
-    /// into an exception) instead of leaving the caller waiting for that worker forever.
-    #[test]
-    fn a_panic_on_a_worker_is_handed_on_not_waited_for() {
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let mut crew = Crew::new(1).unwrap();
-            let work = |k: usize| {
-                std::thread::sleep(Duration::from_millis(1)); // long enough for the worker to take tasks
-                if std::thread::current().name().is_some_and(|n| n.starts_with("wolfpack-crew")) {
-                    panic!("task {k} on the worker");
-                }
-                k
-            };
-            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| share(Some(&mut crew), 2, (0..64).collect(), 1, work)));
-            tx.send(r.is_err()).unwrap();
-        });
-        let panicked = rx.recv_timeout(Duration::from_secs(60)).expect("share still waiting 60 s after a worker's task panicked");
-        assert!(panicked, "the worker's panic was not handed on");
-    }
 }
+
