@@ -14,6 +14,7 @@ pub mod limits;
 pub mod math;
 pub mod normal;
 pub mod observe;
+pub mod pipeline;
 pub mod policies;
 pub mod render;
 pub mod reward;

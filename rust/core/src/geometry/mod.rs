@@ -5,8 +5,10 @@
 //! of a polygon's visible part — are built here on top of them, one small function each.
 
 mod polygon;
+mod ring;
 mod triangle;
 
+pub use ring::{assign, hunting_points};
 pub use polygon::{edges, polygon_closest_point, polygon_contains, polygon_visible_extent, segment_disc_clip};
 pub use triangle::{body_triangle, BodyFrame, segments_intersect, triangle_contains, triangle_overlaps_circle, triangle_overlaps_polygon, triangles_overlap};
 

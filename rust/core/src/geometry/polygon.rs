@@ -330,7 +330,7 @@ mod tests {
     #[test]
     fn the_one_pass_extent_equals_the_three_walks_bit_for_bit() {
         use crate::config::ObstacleParams;
-        use crate::world::Obstacle;
+        use crate::scene::Obstacle;
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let shapes = ObstacleParams::default();
@@ -417,7 +417,7 @@ mod tests {
     #[test]
     fn pseudo_angle_selection_gives_the_angles_bit_for_bit() {
         use crate::config::ObstacleParams;
-        use crate::world::Obstacle;
+        use crate::scene::Obstacle;
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let shapes = ObstacleParams::default();

@@ -52,17 +52,9 @@ use super::Snapshot;
 use crate::config::{AvoidanceParams, KappaRow};
 use crate::math::{acos, angle_of, wrap, Vec2, FRAC_PI_2, PI, TAU};
 use crate::policies::saturator::{next_heading, saturate};
+pub use crate::scene::DangerMemory;
 use crate::scene::{Obstacle, ObstacleKind};
 
-/// An emergency (SPEC §4) lasts several steps: what the avoidance of a law remembers between
-/// them (part of the memories of seed000, escape and random).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct DangerMemory {
-    /// Steps of the current emergency still to run, this one included (0: none).
-    pub steps_left: u32,
-    /// Heading (rad) straight away from the dangerous interval's bisector.
-    pub away: f64,
-}
 
 /// Items kept per agent and step; more are dropped farthest first (12 obstacles + 4 walls +
 /// a few partners in the documented scenario).

@@ -26,38 +26,13 @@
 //!   communication); when nobody does, it heads for the last position known, and before any
 //!   it stays.
 
-use pathfinding::kuhn_munkres::kuhn_munkres_min;
-use pathfinding::matrix::Matrix;
-
-use super::{Sighting, Snapshot};
+use super::Snapshot;
+/// The bvc law's memory: the pack's last sighting and the assigned hunting point.
+pub use crate::scene::BvcMemory as Memory;
+pub use crate::geometry::{assign, hunting_points};
 use crate::geometry::{edges, polygon_closest_point};
 use crate::math::{angle_of, cos, cross, sin, Point2, Vec2};
 use crate::scene::Obstacle;
-
-/// N hunting points on the circle of radius `r_h` around `target`, point k at angle 2πk/N.
-pub fn hunting_points(target: Vec2, n: usize, r_h: f64) -> Vec<Vec2> {
-    (0..n)
-        .map(|k| {
-            let a = std::f64::consts::TAU * k as f64 / n as f64;
-            target + r_h * Vec2::new(cos(a), sin(a))
-        })
-        .collect()
-}
-
-/// Distances are compared in whole micrometres: Kuhn–Munkres needs totally ordered weights,
-/// and a micrometre is far below anything the world resolves.
-const ASSIGNMENT_UNIT: f64 = 1e-6;
-
-/// The assignment of wolves to points (`result[i]` = wolf i's point) minimising the total
-/// wolf→point distance. Needs `points.len() >= wolves.len()`.
-pub fn assign(wolves: &[Vec2], points: &[Vec2]) -> Vec<usize> {
-    if wolves.is_empty() {
-        return Vec::new();
-    }
-    let weights: Vec<i64> = wolves.iter().flat_map(|w| points.iter().map(move |p| ((w - p).norm() / ASSIGNMENT_UNIT).round() as i64)).collect();
-    let matrix = Matrix::from_vec(wolves.len(), points.len(), weights).expect("rows x columns weights");
-    kuhn_munkres_min(&matrix).1
-}
 
 /// [`assign`], memoised per thread: every wolf of the pack solves the same problem.
 fn assign_memoised(wolves: &[Vec2], points: &[Vec2]) -> Vec<usize> {
@@ -225,14 +200,6 @@ pub fn cell(i: usize, wolves: &[Vec2], obstacles: &[Obstacle], border: [f64; 4],
         }
     }
     (vec![wolves[i]], Vec::new())
-}
-
-/// What the bvc law carries from one step to the next for one wolf.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Memory {
-    pub sighting: Sighting,
-    /// The hunting point assigned at the last assignment.
-    pub point: Option<usize>,
 }
 
 /// The bvc law up to the saturator: wolf i's desired (v_d, θ_d).

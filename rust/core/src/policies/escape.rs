@@ -24,17 +24,13 @@
 
 use rand::Rng;
 
-use super::avoidance::{self, DangerMemory};
+use super::avoidance;
+/// The `escape` and `random` laws' memory: their emergency.
+pub use crate::scene::EscapeMemory as Memory;
 use super::saturator::saturate;
 use super::{Command, Snapshot};
 use crate::config::EscapeParams;
 use crate::math::{angle_of, wrap, Vec2};
-
-/// What the `escape` and `random` laws carry from one step to the next for one target.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Memory {
-    pub danger: DangerMemory,
-}
 
 /// The `escape` law for target `j`.
 pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> Command {

@@ -48,6 +48,8 @@ use super::Snapshot;
 use crate::config::FormationParams;
 use crate::math::{angle_of, cos, sin, unit, Vec2};
 use crate::scene::Obstacle;
+/// The formation law's memory: the pack's last sighting.
+pub use crate::scene::FormationMemory as Memory;
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -206,12 +208,6 @@ fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &For
 
 fn velocity(a: &crate::scene::AgentState) -> Vec2 {
     a.v * unit(a.theta)
-}
-
-/// What the formation law carries from one step to the next for one wolf.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Memory {
-    pub sighting: super::Sighting,
 }
 
 /// The formation law up to the saturator: wolf i's desired (v_d, θ_d).

@@ -19,43 +19,9 @@ pub mod seed000;
 
 use rand::Rng;
 
-use crate::config::{TargetPolicy, WolfPolicy};
-use crate::scene::AgentState;
+use crate::config::TargetPolicy;
 
-pub use crate::scene::{Command, Snapshot};
-
-/// What a wolf's law carries from one step to the next: the configured law's own memory,
-/// defined beside it. The world holds one per wolf between steps and hands it back to the law.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum WolfMemory {
-    Seed000(seed000::Memory),
-    Bvc(bvc::Memory),
-    Formation(formation::Memory),
-}
-
-impl WolfMemory {
-    /// The memory of `law` before an episode's first step.
-    pub fn new(law: WolfPolicy) -> Self {
-        match law {
-            WolfPolicy::Seed000 => Self::Seed000(Default::default()),
-            WolfPolicy::Bvc => Self::Bvc(Default::default()),
-            WolfPolicy::Formation => Self::Formation(Default::default()),
-        }
-    }
-
-    /// The law this memory belongs to.
-    pub fn law(&self) -> WolfPolicy {
-        match self {
-            Self::Seed000(_) => WolfPolicy::Seed000,
-            Self::Bvc(_) => WolfPolicy::Bvc,
-            Self::Formation(_) => WolfPolicy::Formation,
-        }
-    }
-}
-
-/// What a target's law carries from one step to the next (`escape` and `random` share it;
-/// `still` needs none).
-pub type TargetMemory = escape::Memory;
+pub use crate::scene::{Command, Sighting, Snapshot, TargetMemory, WolfMemory};
 
 /// The configured wolf law up to the saturator: wolf i's desired (v_d, θ_d). A memory of
 /// another law (the law was changed) starts afresh as the configured law's.
@@ -81,30 +47,6 @@ pub fn target_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory,
         TargetPolicy::Escape => escape::escape_desired(j, snap, mem, rng),
         TargetPolicy::Random => escape::random_desired(j, snap, mem, rng),
         TargetPolicy::Still => (0.0, snap.targets[j].theta),
-    }
-}
-
-/// The pack's last sighting of a wolf's target, for the laws that hunt a position (bvc,
-/// formation).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Sighting {
-    /// The target as the pack last sensed it (None before any sighting)...
-    pub target: Option<AgentState>,
-    /// ... and the step of that sighting (formation predicts where it went since).
-    pub t: u32,
-}
-
-impl Sighting {
-    /// Global communication (SPEC §1.4): when any wolf hunting wolf i's target senses it, the
-    /// whole pack learns the target's state and the step; returns the target as last sensed
-    /// (None before any sighting).
-    pub fn share(&mut self, i: usize, snap: &Snapshot) -> Option<AgentState> {
-        let target = snap.wolf_target[i];
-        if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {
-            self.target = Some(snap.targets[target]);
-            self.t = snap.t;
-        }
-        self.target
     }
 }
 

@@ -19,18 +19,13 @@
 //! - A zero ν (nothing to do) keeps the current heading as θ_d, with v_d = 0.
 //! - Ties in distance go to the lower wolf index (deterministic, never a panic).
 
-use super::avoidance::{self, DangerMemory};
+use super::avoidance;
 use super::saturator::saturate;
 use super::{Command, Snapshot};
 use crate::math::{angle_of, pow, Vec2};
+/// The seed000 law's memory: its last attraction and its emergency.
+pub use crate::scene::Seed000Memory as Memory;
 
-/// What the seed000 law carries from one step to the next for one wolf.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Memory {
-    /// The previous step's attraction vector ν₁ (zero before the first step).
-    pub last_attraction: Vec2,
-    pub danger: DangerMemory,
-}
 
 /// The command of wolf `i` for this step. Marks in `row` (wolf i's row of the interaction
 /// matrix) every other wolf whose information the law used.

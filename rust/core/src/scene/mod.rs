@@ -3,9 +3,11 @@
 //! The world (`crate::world`) owns and steps these; the laws (`crate::policies`) read them; neither
 //! module imports the other's types for this, and the laws never import the world.
 
+mod memory;
 mod near;
 mod obstacles;
 
+pub use memory::{BvcMemory, DangerMemory, EscapeMemory, FormationMemory, Seed000Memory, Sighting, TargetMemory, WolfMemory};
 pub use near::{cull_distance, near, Near, Neighbours};
 pub(crate) use obstacles::PolygonDraw;
 pub use obstacles::{Obstacle, ObstacleKind};

@@ -6,11 +6,11 @@ mod expert;
 mod step;
 
 pub use expert::Desired;
+pub(crate) use step::Controls;
 pub use layout::{Layout, LayoutObstacle};
 // The types the world shares with the laws live below both (crate::scene); the world's
 // users find them here as well.
-pub use crate::policies::{TargetMemory, WolfMemory};
-pub use crate::scene::{cull_distance, near, AgentState, Near, Neighbours, Obstacle, ObstacleKind};
+pub use crate::scene::{cull_distance, near, AgentState, Near, Neighbours, Obstacle, ObstacleKind, TargetMemory, WolfMemory};
 
 use std::sync::Arc;
 

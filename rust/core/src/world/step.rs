@@ -2,30 +2,42 @@
 //! agents move through the feasibility filter; outcomes; the clock advances.
 
 use parry2d_f64::transformation::convex_hull;
+use rand_chacha::ChaCha8Rng;
 
 use super::{AgentState, Outcome, World};
 use crate::config::{CaptureRule, Params, SideParams, WolfPolicy};
 use crate::geometry::{triangle_contains, triangles_overlap, BodyFrame};
 use crate::math::{wrap, Point2, Vec2};
-use crate::policies::saturator::saturate;
-use crate::policies::{self, Command, Snapshot};
+use crate::scene::{Command, Snapshot, TargetMemory, WolfMemory};
+
+/// What a step's controllers read (the snapshot) and write, borrowed apart from the world
+/// ([`World::controls`]).
+pub(crate) struct Controls<'a> {
+    pub snap: Snapshot<'a>,
+    pub wolf_memory: &'a mut [WolfMemory],
+    pub target_memory: &'a mut [TargetMemory],
+    pub wolf_cmds: &'a mut [Command],
+    pub target_cmds: &'a mut [Command],
+    /// The interaction matrix, (N+M)² row-major: a law marks the agents whose information it used.
+    pub interaction: &'a mut [u8],
+    /// A row for a law that runs only to keep its memory (`track_laws`), whose marks are dropped.
+    pub scratch_row: &'a mut [u8],
+    pub rng_policy: &'a mut ChaCha8Rng,
+    pub track_laws: bool,
+}
 
 /// A speed reached by halving below this stops the wolf: it only turns (SPEC §1.5). A
 /// commanded speed below it is made as commanded when feasible.
 const MIN_HALVED_SPEED: f64 = 0.01;
 
 impl World {
-    /// Advances one step with every agent driven by its side's scripted law.
-    pub fn step(&mut self) -> Outcome {
-        self.step_with(None, None)
-    }
-
-    /// Advances one step. `wolf_cmds` / `target_cmds`, when given, replace the scripted law of
-    /// that side (one command per agent; learned controllers). Commands are clamped to the
-    /// side's limits. A finished world does not move.
-    pub fn step_with(&mut self, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) -> Outcome {
+    /// The first stage of a step (SPEC §1.5 steps 1–2, up to the controllers): obstacles move,
+    /// the step's near lists, then target assignment and sensing. False, and nothing moves,
+    /// when the world is done. The controllers come next ([`World::controls`]), then
+    /// [`World::finish_step`]; `crate::pipeline` runs the three.
+    pub(crate) fn begin_step(&mut self) -> bool {
         if self.is_done() {
-            return self.outcome;
+            return false;
         }
         // 1. Obstacles move.
         self.move_obstacles();
@@ -34,12 +46,46 @@ impl World {
         if self.lazy_obstacles {
             self.place_reachable_obstacles();
         }
-        // 2. Assignment, sensing and the snapshot every controller reads.
+        // 2. Assignment and sensing: what the snapshot every controller reads holds.
         self.sense();
-        self.control(wolf_cmds, target_cmds);
+        true
+    }
+
+    /// What the controllers of a step read and write: the snapshot, and the laws' memories,
+    /// random stream, command buffers and interaction rows, borrowed apart.
+    pub(crate) fn controls(&mut self) -> Controls<'_> {
+        Controls {
+            snap: Snapshot {
+                params: &self.params,
+                t: self.t,
+                wolves: &self.wolves,
+                targets: &self.targets,
+                obstacles: &self.obstacles,
+                near: Some(&self.near),
+                wolf_target: &self.wolf_target,
+                wolf_senses: &self.wolf_senses,
+                target_seen_at: &self.target_seen_at,
+                target_captured: &self.target_captured,
+            },
+            wolf_memory: &mut self.wolf_memory,
+            target_memory: &mut self.target_memory,
+            wolf_cmds: &mut self.wolf_cmds,
+            target_cmds: &mut self.target_cmds,
+            interaction: &mut self.interaction,
+            scratch_row: &mut self.scratch_row,
+            rng_policy: &mut self.rng_policy,
+            track_laws: self.track_laws,
+        }
+    }
+
+    /// The last stage of a step (SPEC §1.5 steps 3–4), once the controllers have written this
+    /// step's commands: moves through the feasibility filter, outcomes, the clock.
+    /// `wolves_given` / `targets_given` say which sides were driven by given commands (for the
+    /// fault message of a non-finite one).
+    pub(crate) fn finish_step(&mut self, wolves_given: bool, targets_given: bool) -> Outcome {
         // A non-finite command would never leave the feasibility filter's halving loop (inf
         // halves to inf, NaN compares false) and would poison every later number: stop here.
-        if let Some(fault) = self.non_finite_command(wolf_cmds.is_some(), target_cmds.is_some()) {
+        if let Some(fault) = self.non_finite_command(wolves_given, targets_given) {
             self.fault = Some(fault);
             return self.outcome;
         }
@@ -145,53 +191,6 @@ impl World {
     #[inline(never)]
     fn sense(&mut self) {
         sense_into(&self.params, self.t, &self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target, &mut self.wolf_senses, &mut self.target_seen_at, &mut self.interaction);
-    }
-
-    /// Step 2: every controller reads the same snapshot; commands land in the scratch buffers.
-    /// A side driven by given commands still runs its law when `track_laws` is set, so that
-    /// the law's memory (and its random stream) follows the episode for `expert_desired`.
-    #[inline(never)]
-    fn control(&mut self, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) {
-        let (n, k) = (self.n_wolves(), self.n_wolves() + self.n_targets());
-        let snap = Snapshot {
-            params: &self.params,
-            t: self.t,
-            wolves: &self.wolves,
-            targets: &self.targets,
-            obstacles: &self.obstacles,
-            near: Some(&self.near),
-            wolf_target: &self.wolf_target,
-            wolf_senses: &self.wolf_senses,
-            target_seen_at: &self.target_seen_at,
-            target_captured: &self.target_captured,
-        };
-        let wolf_side = &self.params.agents.wolf;
-        let target_side = &self.params.agents.target;
-        let ts = self.params.world.ts;
-        if let Some(c) = wolf_cmds {
-            self.wolf_cmds.copy_from_slice(c);
-        }
-        if wolf_cmds.is_none() || self.track_laws {
-            for i in 0..n {
-                // A tracked (not driving) law must not mark the interaction matrix.
-                let row: &mut [u8] = if wolf_cmds.is_none() { &mut self.interaction[i * k..(i + 1) * k] } else { &mut self.scratch_row };
-                let (v_d, theta_d) = policies::wolf_desired(i, &snap, &mut self.wolf_memory[i], row);
-                if wolf_cmds.is_none() {
-                    self.wolf_cmds[i] = saturate(v_d, theta_d, snap.wolves[i].theta, wolf_side.v_max, wolf_side.omega_max, ts);
-                }
-            }
-        }
-        if let Some(c) = target_cmds {
-            self.target_cmds.copy_from_slice(c);
-        }
-        if target_cmds.is_none() || self.track_laws {
-            for j in 0..self.targets.len() {
-                let (v_d, theta_d) = policies::target_desired(j, &snap, &mut self.target_memory[j], &mut self.rng_policy);
-                if target_cmds.is_none() {
-                    self.target_cmds[j] = saturate(v_d, theta_d, snap.targets[j].theta, target_side.v_max, target_side.omega_max, ts);
-                }
-            }
-        }
     }
 
     #[inline(never)]
@@ -388,8 +387,8 @@ impl World {
         if hunters.is_empty() || hunters.iter().any(|q| (q - tp).norm_squared() > reach * reach) {
             return false;
         }
-        let points = policies::bvc::hunting_points(tp, hunters.len(), r_h);
-        let assignment = policies::bvc::assign(&hunters, &points);
+        let points = crate::geometry::hunting_points(tp, hunters.len(), r_h);
+        let assignment = crate::geometry::assign(&hunters, &points);
         hunters.iter().zip(&assignment).all(|(q, &k)| (q - points[k]).norm() <= tol)
     }
 }
