@@ -1,6 +1,6 @@
 """Scenario parameters: YAML in, validated dict out.
 
-The schema lives in Rust (``rust/core/src/config.rs``): unknown keys, wrong types and out-of-range
+The schema lives in Rust (``rust/core/src/config/``): unknown keys, wrong types and out-of-range
 values are rejected there, and the error names the key. This module only reads YAML and applies
 dotted overrides such as ``{"world.wolves": 8}`` (CLI: ``--set world.wolves=8``).
 

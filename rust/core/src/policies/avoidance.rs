@@ -29,7 +29,7 @@
 //! - Partner items never trigger an emergency (their distance is a centre distance, and
 //!   close-partner steering is the dedicated rule); in a merged interval they do not count for
 //!   its distance.
-//! - Two readings are parameters, documented with their measured effect in config.rs
+//! - Two readings are parameters, documented with their measured effect in config/laws.rs
 //!   (`AvoidanceParams::wall_emergency`, `AvoidanceParams::target_edge_from_desired`): whether
 //!   walls can trigger emergencies, and whether the target variant's nearer edge is measured
 //!   from θ_d (eq. 13 of the source) or from the heading θ.
