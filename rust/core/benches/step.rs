@@ -72,9 +72,7 @@ fn bench_step(c: &mut Criterion) {
         let params = Arc::new(params);
         let mut seed = 0;
         let mut world = World::new(params.clone(), seed).expect("spawn");
-        g.bench_function(BenchmarkId::from_parameter(name), |b| {
-            b.iter_custom(|iters| timed_steps(&params, &mut seed, &mut world, iters))
-        });
+        g.bench_function(BenchmarkId::from_parameter(name), |b| b.iter_custom(|iters| timed_steps(&params, &mut seed, &mut world, iters)));
     }
     g.finish();
 }

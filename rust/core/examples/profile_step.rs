@@ -15,7 +15,6 @@
 //!
 //! Prints the env-steps done, so the per-step figures can be read off the totals.
 
-
 use wolfpack_core::batch::{BatchEnv, Learners};
 use wolfpack_core::episode::run_episodes;
 use wolfpack_core::Params;

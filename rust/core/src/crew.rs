@@ -461,17 +461,20 @@ mod tests {
         let mut joined = Vec::new();
         for k in 1..=PROBE_EVERY {
             let member_ran = AtomicBool::new(false);
-            crew.run_with(&|w| {
-                if w == 0 {
-                    // Time enough for a woken member to come (a parked one never does).
-                    let t = Instant::now();
-                    while !member_ran.load(Ordering::SeqCst) && t.elapsed() < Duration::from_millis(20) {
-                        std::thread::yield_now();
+            crew.run_with(
+                &|w| {
+                    if w == 0 {
+                        // Time enough for a woken member to come (a parked one never does).
+                        let t = Instant::now();
+                        while !member_ran.load(Ordering::SeqCst) && t.elapsed() < Duration::from_millis(20) {
+                            std::thread::yield_now();
+                        }
+                    } else {
+                        member_ran.store(true, Ordering::SeqCst);
                     }
-                } else {
-                    member_ran.store(true, Ordering::SeqCst);
-                }
-            }, false);
+                },
+                false,
+            );
             if member_ran.load(Ordering::SeqCst) {
                 joined.push(k);
             }

@@ -213,8 +213,33 @@ mod tests {
         // std's f64 methods and rand_distr's normals call the platform's C library (see the
         // comment above `sin`): outside this module and the tests, the crate uses the libm
         // wrappers here and `crate::normal`.
-        let calls = [".sin(", ".cos(", ".sin_cos(", ".tan(", ".atan2(", ".atan(", ".asin(", ".acos(", ".sinh(", ".cosh(", ".tanh(", ".powf(", ".exp(", ".exp2(", ".exp_m1(",
-                     ".ln(", ".ln_1p(", ".log(", ".log2(", ".log10(", ".hypot(", ".cbrt(", "StandardNormal", "Normal::new", "Exp1"];
+        let calls = [
+            ".sin(",
+            ".cos(",
+            ".sin_cos(",
+            ".tan(",
+            ".atan2(",
+            ".atan(",
+            ".asin(",
+            ".acos(",
+            ".sinh(",
+            ".cosh(",
+            ".tanh(",
+            ".powf(",
+            ".exp(",
+            ".exp2(",
+            ".exp_m1(",
+            ".ln(",
+            ".ln_1p(",
+            ".log(",
+            ".log2(",
+            ".log10(",
+            ".hypot(",
+            ".cbrt(",
+            "StandardNormal",
+            "Normal::new",
+            "Exp1",
+        ];
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
         let mut files = vec![root.clone()];
         let mut found = Vec::new();

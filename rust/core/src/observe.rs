@@ -204,17 +204,7 @@ fn arena_scale(p: &Params) -> f64 {
 fn common(p: &Params, t: u32, me: &AgentState, (s, c): (f64, f64), v_max: f64, omega_max: f64, out: &mut [f32]) -> usize {
     let [x0, y0, x1, y1] = p.world.border;
     let (w, h) = (x1 - x0, y1 - y0);
-    let values = [
-        me.v / v_max,
-        me.omega / omega_max,
-        s,
-        c,
-        (me.pos.x - x0) / w,
-        (x1 - me.pos.x) / w,
-        (me.pos.y - y0) / h,
-        (y1 - me.pos.y) / h,
-        t as f64 / p.world.max_steps as f64,
-    ];
+    let values = [me.v / v_max, me.omega / omega_max, s, c, (me.pos.x - x0) / w, (x1 - me.pos.x) / w, (me.pos.y - y0) / h, (y1 - me.pos.y) / h, t as f64 / p.world.max_steps as f64];
     for (o, v) in out.iter_mut().zip(values) {
         *o = v as f32;
     }
@@ -362,8 +352,20 @@ pub(crate) fn lidar_reaches(ob: &Obstacle, p: Vec2, range: f64) -> bool {
 pub fn ray_walls(o: Vec2, d: Vec2, border: &[f64; 4]) -> f64 {
     let [x0, y0, x1, y1] = *border;
     // Slabs: along each axis the wall ahead; an axis the ray runs parallel to never ends it.
-    let tx = if d.x > 0.0 { (x1 - o.x) / d.x } else if d.x < 0.0 { (x0 - o.x) / d.x } else { f64::INFINITY };
-    let ty = if d.y > 0.0 { (y1 - o.y) / d.y } else if d.y < 0.0 { (y0 - o.y) / d.y } else { f64::INFINITY };
+    let tx = if d.x > 0.0 {
+        (x1 - o.x) / d.x
+    } else if d.x < 0.0 {
+        (x0 - o.x) / d.x
+    } else {
+        f64::INFINITY
+    };
+    let ty = if d.y > 0.0 {
+        (y1 - o.y) / d.y
+    } else if d.y < 0.0 {
+        (y0 - o.y) / d.y
+    } else {
+        f64::INFINITY
+    };
     tx.min(ty).max(0.0)
 }
 

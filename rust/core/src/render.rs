@@ -19,17 +19,7 @@ use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Trans
 pub type Rgb = [u8; 3];
 
 /// Colours of wolf i (cycled) — matplotlib's tab10 without its red, which is the targets'.
-pub const WOLF_COLOURS: [Rgb; 9] = [
-    [31, 119, 180],
-    [44, 160, 44],
-    [148, 103, 189],
-    [255, 127, 14],
-    [140, 86, 75],
-    [227, 119, 194],
-    [127, 127, 127],
-    [188, 189, 34],
-    [23, 190, 207],
-];
+pub const WOLF_COLOURS: [Rgb; 9] = [[31, 119, 180], [44, 160, 44], [148, 103, 189], [255, 127, 14], [140, 86, 75], [227, 119, 194], [127, 127, 127], [188, 189, 34], [23, 190, 207]];
 pub const TARGET_COLOUR: Rgb = [214, 39, 40];
 pub const BACKGROUND: Rgb = [255, 255, 255];
 pub const OUTSIDE: Rgb = [225, 225, 225];

@@ -15,8 +15,8 @@
 //! params leaves the remaining slots empty; one with more does not fit (an error naming both).
 
 use crate::config::Params;
-use crate::math::{cos, sin};
 use crate::error::{Error, Result};
+use crate::math::{cos, sin};
 use crate::world::World;
 
 pub const WOLF_ENTRIES: usize = 6;
@@ -32,7 +32,10 @@ pub fn state_dim(params: &Params) -> usize {
 pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
     let slots = params.obstacles.total();
     if w.obstacles.len() > slots {
-        return Err(Error::Invalid(format!("state: the world has {} obstacles, the state holds {slots} (the params' obstacle counts); give the params at least as many obstacles as the layout", w.obstacles.len())));
+        return Err(Error::Invalid(format!(
+            "state: the world has {} obstacles, the state holds {slots} (the params' obstacle counts); give the params at least as many obstacles as the layout",
+            w.obstacles.len()
+        )));
     }
     debug_assert_eq!(out.len(), state_dim(params));
     let [x0, y0, x1, y1] = params.world.border;
@@ -88,7 +91,11 @@ mod tests {
         p.obstacles.moving_circles = 1;
         p.obstacles.static_polygons = 0;
         p.obstacles.moving_polygons = 0;
-        let l = Layout { wolves: vec![[5.0, -2.0, std::f64::consts::FRAC_PI_2]], targets: vec![[-9.0, 4.0, 0.0]], obstacles: vec![LayoutObstacle::Circle { center: [0.0, 8.0], radius: 0.5, moving: false }] };
+        let l = Layout {
+            wolves: vec![[5.0, -2.0, std::f64::consts::FRAC_PI_2]],
+            targets: vec![[-9.0, 4.0, 0.0]],
+            obstacles: vec![LayoutObstacle::Circle { center: [0.0, 8.0], radius: 0.5, moving: false }],
+        };
         let w = World::from_layout(Arc::new(p.clone()), 0, &l).unwrap();
         let p1 = w.params.as_ref();
         assert_eq!(state_dim(p1), 6 + 7 + 2 * 5 + 1);
@@ -101,7 +108,8 @@ mod tests {
         // More obstacles than slots: an error, not a truncated state.
         let mut few = p;
         few.obstacles.moving_circles = 0;
-        let w = World::from_layout(Arc::new(few.clone()), 0, &Layout { obstacles: vec![l.obstacles[0].clone(), LayoutObstacle::Circle { center: [0.0, -8.0], radius: 0.5, moving: false }], ..l }).unwrap();
+        let w =
+            World::from_layout(Arc::new(few.clone()), 0, &Layout { obstacles: vec![l.obstacles[0].clone(), LayoutObstacle::Circle { center: [0.0, -8.0], radius: 0.5, moving: false }], ..l }).unwrap();
         let pw = w.params.clone();
         let mut row = vec![0.0f32; state_dim(&pw)];
         assert!(write_state(&w, &pw, &mut row).unwrap_err().to_string().contains("2 obstacles"));

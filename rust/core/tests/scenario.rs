@@ -36,12 +36,7 @@ fn documented_scenario_captures_reliably() {
     let (captured, collided, timeout) = (count(Outcome::Captured), count(Outcome::Collision), count(Outcome::Timeout));
     let median = median(res.iter().filter_map(|r| r.capture_step).collect());
     let rate = |k: usize| k as f64 / n as f64;
-    println!(
-        "episodes {n}: captured {:.1}%, collision {:.1}%, timeout {:.1}%, median capture step {median}",
-        100.0 * rate(captured),
-        100.0 * rate(collided),
-        100.0 * rate(timeout)
-    );
+    println!("episodes {n}: captured {:.1}%, collision {:.1}%, timeout {:.1}%, median capture step {median}", 100.0 * rate(captured), 100.0 * rate(collided), 100.0 * rate(timeout));
     let failed: Vec<(u64, &str)> = res.iter().filter(|r| r.outcome != Outcome::Captured).map(|r| (r.seed, r.outcome.as_str())).collect();
     println!("not captured: {failed:?}");
     assert!(rate(captured) >= 0.97, "capture rate {:.3} < 0.97", rate(captured));
@@ -63,7 +58,14 @@ fn cornered_targets_count_as_successes_only_when_asked() {
     let with = run_episodes(&p, 0, 0, n, None, false, None).unwrap();
     let count = |r: &[wolfpack_core::episode::EpisodeResult], o: Outcome| r.iter().filter(|x| x.outcome == o).count();
     let ever = |r: &[wolfpack_core::episode::EpisodeResult]| r.iter().filter(|x| x.cornered_step.is_some()).count();
-    println!("bvc: captured {} (ever cornered {}); with capture.cornered: captured {} + cornered {} (ever cornered {})", count(&plain, Outcome::Captured), ever(&plain), count(&with, Outcome::Captured), count(&with, Outcome::Cornered), ever(&with));
+    println!(
+        "bvc: captured {} (ever cornered {}); with capture.cornered: captured {} + cornered {} (ever cornered {})",
+        count(&plain, Outcome::Captured),
+        ever(&plain),
+        count(&with, Outcome::Captured),
+        count(&with, Outcome::Cornered),
+        ever(&with)
+    );
     assert_eq!(count(&plain, Outcome::Cornered), 0);
     assert!(ever(&plain) > 0, "no bvc episode ever cornered its target");
     assert!(count(&with, Outcome::Cornered) > 0);

@@ -235,10 +235,12 @@ fn without_the_filter_the_walls_still_hold() {
 }
 
 fn ring(n: usize, r: f64) -> Vec<[f64; 3]> {
-    (0..n).map(|k| {
-        let a = k as f64 * std::f64::consts::TAU / n as f64;
-        [r * a.cos(), r * a.sin(), a]
-    }).collect()
+    (0..n)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / n as f64;
+            [r * a.cos(), r * a.sin(), a]
+        })
+        .collect()
 }
 
 #[test]

@@ -18,8 +18,8 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pythonize::pythonize;
 use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
 use wolfpack_core::episode::{run_episodes_until, EpisodeResult, Trajectory};
-use wolfpack_core::world::{Layout, World};
 use wolfpack_core::render::{render, Scene};
+use wolfpack_core::world::{Layout, World};
 use wolfpack_core::{Error, Params};
 
 /// The extension's Rust allocations (the worlds, their obstacles and vertex lists, the step's
@@ -42,11 +42,7 @@ fn value_error(e: Error) -> PyErr {
 /// Runs `f`, turning a panic into a `RuntimeError` naming it as an internal error.
 fn guarded<T>(f: impl FnOnce() -> T) -> PyResult<T> {
     catch_unwind(AssertUnwindSafe(f)).map_err(|payload| {
-        let msg = payload
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-            .unwrap_or_else(|| "unknown panic".into());
+        let msg = payload.downcast_ref::<String>().cloned().or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_else(|| "unknown panic".into());
         PyRuntimeError::new_err(format!("internal error in wolfpack core (please report): {msg}"))
     })
 }
@@ -133,9 +129,7 @@ fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize, budget: &mu
         }
     } else if let Ok(f) = obj.cast::<PyFloat>() {
         let x = f.value();
-        serde_json::Number::from_f64(x)
-            .map(Value::Number)
-            .ok_or_else(|| PyValueError::new_err(format!("{}: must be finite, got {x}", at(path))))
+        serde_json::Number::from_f64(x).map(Value::Number).ok_or_else(|| PyValueError::new_err(format!("{}: must be finite, got {x}", at(path))))
     } else if let Ok(s) = obj.cast::<PyString>() {
         Ok(Value::String(s.to_str()?.to_owned()))
     } else if let Ok(d) = obj.cast::<PyDict>() {
@@ -166,9 +160,7 @@ fn to_plain(obj: &Bound<'_, PyAny>, path: &mut String, depth: usize, budget: &mu
         Ok(Value::from(i))
     } else if let Ok(x) = obj.extract::<f64>() {
         // Other number-likes.
-        serde_json::Number::from_f64(x)
-            .map(Value::Number)
-            .ok_or_else(|| PyValueError::new_err(format!("{}: must be finite, got {x}", at(path))))
+        serde_json::Number::from_f64(x).map(Value::Number).ok_or_else(|| PyValueError::new_err(format!("{}: must be finite, got {x}", at(path))))
     } else {
         Err(PyValueError::new_err(format!("{}: unsupported value of type {}", at(path), obj.get_type().name()?)))
     }
@@ -396,11 +388,7 @@ type SideArray<'py> = Option<Bound<'py, PyAny>>;
 /// `step`'s fast test: the actions of both sides as `step` takes them, or None when one is
 /// not exactly what it must be (float32, C-contiguous, [E, K, 2]), is missing for a learning
 /// side or given for a scripted one.
-fn exact_step_actions<'py>(
-    env: &BatchEnv,
-    wolf_actions: Option<&Bound<'py, PyAny>>,
-    target_actions: Option<&Bound<'py, PyAny>>,
-) -> Option<(SideActions<'py>, SideActions<'py>)> {
+fn exact_step_actions<'py>(env: &BatchEnv, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> Option<(SideActions<'py>, SideActions<'py>)> {
     let e = env.num_envs();
     let l = env.learners();
     let side = |obj: Option<&Bound<'py, PyAny>>, learns: bool, k: usize| -> Option<SideActions<'py>> {

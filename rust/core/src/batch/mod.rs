@@ -301,11 +301,7 @@ impl BatchEnv {
         if let Some(l) = layout {
             let (n, m) = (self.n_wolves(), self.n_targets());
             if l.wolves.len() != n || l.targets.len() != m {
-                return Err(Error::Layout(format!(
-                    "layout has {} wolves and {} targets; this environment was built for {n} and {m} (its spaces depend on them)",
-                    l.wolves.len(),
-                    l.targets.len()
-                )));
+                return Err(Error::Layout(format!("layout has {} wolves and {} targets; this environment was built for {n} and {m} (its spaces depend on them)", l.wolves.len(), l.targets.len())));
             }
         }
         let (sd, ep) = match seed {
@@ -327,12 +323,19 @@ impl BatchEnv {
         let (participants, chunk) = self.schedule();
         let outs = OutPieces::new(&mut out, lens, e, n, m);
         let slots = Disjoint::new(&mut self.slots);
-        par_for(self.crew.as_mut(), participants, e, chunk, |_| {}, |i| {
-            // SAFETY: par_for hands out each world index once.
-            let (s, mut o) = unsafe { (slots.item(i), outs.world(i)) };
-            write_obs(s, o.obs_w, o.obs_t);
-            write_infos(&s.world, &mut o);
-        });
+        par_for(
+            self.crew.as_mut(),
+            participants,
+            e,
+            chunk,
+            |_| {},
+            |i| {
+                // SAFETY: par_for hands out each world index once.
+                let (s, mut o) = unsafe { (slots.item(i), outs.world(i)) };
+                write_obs(s, o.obs_w, o.obs_t);
+                write_infos(&s.world, &mut o);
+            },
+        );
         // SAFETY: every world's task zeroed its pieces of the observation arrays
         // (`OutPieces::world`), and the pieces tile them.
         unsafe { lens.set(&mut out) };
@@ -427,9 +430,7 @@ impl BatchEnv {
         same_elsewhere.env.wolf_action_mode = self.params.env.wolf_action_mode;
         same_elsewhere.env.target_action_mode = self.params.env.target_action_mode;
         if same_elsewhere != self.params.resolved() {
-            return Err(Error::Invalid(
-                "set_drivers: the params may differ only in policies.* and env.*action_mode (the world itself cannot change mid-episode; build a new batch)".into(),
-            ));
+            return Err(Error::Invalid("set_drivers: the params may differ only in policies.* and env.*action_mode (the world itself cannot change mid-episode; build a new batch)".into()));
         }
         // A side's law starts afresh when it takes over from given actions without having
         // followed them (untracked), or when its law changes.
@@ -618,4 +619,3 @@ mod tests {
         assert!(env.world(0).unwrap().obstacles.iter().all(|o| o.placed));
     }
 }
-

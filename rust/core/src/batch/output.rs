@@ -91,7 +91,6 @@ impl ObsLens {
     }
 }
 
-
 impl BatchEnv {
     /// A step's outputs, the two observation arrays allocated but still empty: their lengths
     /// come back separately, and each world's task zeroes and fills its own pieces
@@ -128,7 +127,6 @@ impl BatchEnv {
         };
         (out, lens)
     }
-
 }
 
 /// A step's outputs as every world's pieces ([`OutPieces::world`]), each found from the world's

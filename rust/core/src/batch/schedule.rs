@@ -19,11 +19,18 @@ pub(super) fn share<T: Send, R: Send>(crew: Option<&mut Crew>, participants: usi
     let mut items: Vec<Option<T>> = items.into_iter().map(Some).collect();
     let mut results: Vec<Option<R>> = std::iter::repeat_with(|| None).take(n).collect();
     let (cells, out) = (Disjoint::new(&mut items), Disjoint::new(&mut results));
-    par_for(crew, participants, n, chunk, |_| {}, |i| {
-        // SAFETY: par_for hands out each index once.
-        let (item, result) = unsafe { (cells.item(i), out.item(i)) };
-        *result = item.take().map(&f);
-    });
+    par_for(
+        crew,
+        participants,
+        n,
+        chunk,
+        |_| {},
+        |i| {
+            // SAFETY: par_for hands out each index once.
+            let (item, result) = unsafe { (cells.item(i), out.item(i)) };
+            *result = item.take().map(&f);
+        },
+    );
     results.into_iter().map(|r| r.expect("par_for calls f once for every index")).collect()
 }
 
@@ -69,20 +76,23 @@ pub(super) fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, ch
     // Participant `home` (the caller 0, crew member w its w) drains its home run, then helps.
     // It claims its next chunk before it runs the last index of the current one, so that the
     // index it hints is always one it holds (a world another thread steps is never touched).
-    crew.run_with(&|home: usize| {
-        let mut current = runs.take(home);
-        while let Some(range) = current {
-            let next = runs.take(home);
-            for i in range.clone() {
-                let hint = if i + 1 < range.end { Some(i + 1) } else { next.as_ref().map(|r| r.start) };
-                if let Some(h) = hint {
-                    ahead(h);
+    crew.run_with(
+        &|home: usize| {
+            let mut current = runs.take(home);
+            while let Some(range) = current {
+                let next = runs.take(home);
+                for i in range.clone() {
+                    let hint = if i + 1 < range.end { Some(i + 1) } else { next.as_ref().map(|r| r.start) };
+                    if let Some(h) = hint {
+                        ahead(h);
+                    }
+                    f(i);
                 }
-                f(i);
+                current = next;
             }
-            current = next;
-        }
-    }, n >= WAKE_FROM);
+        },
+        n >= WAKE_FROM,
+    );
 }
 
 /// Shared access, from many threads, to distinct elements of a slice borrowed for `'a`: the
@@ -251,11 +261,18 @@ mod tests {
         for (n, chunk) in [(100, 7), (64, 1), (5, 16), (1000, 3)] {
             let events = Mutex::new(Vec::new());
             let me = || format!("{:?}", std::thread::current().id());
-            par_for(Some(&mut crew), 3, n, chunk, |next| events.lock().unwrap().push((me(), true, next)), |i| {
-                // Long enough for the threads to interleave and to steal from each other.
-                std::thread::sleep(Duration::from_micros(if i % 5 == 0 { 200 } else { 20 }));
-                events.lock().unwrap().push((me(), false, i));
-            });
+            par_for(
+                Some(&mut crew),
+                3,
+                n,
+                chunk,
+                |next| events.lock().unwrap().push((me(), true, next)),
+                |i| {
+                    // Long enough for the threads to interleave and to steal from each other.
+                    std::thread::sleep(Duration::from_micros(if i % 5 == 0 { 200 } else { 20 }));
+                    events.lock().unwrap().push((me(), false, i));
+                },
+            );
             let events = events.into_inner().unwrap();
             let mut ran: Vec<usize> = events.iter().filter(|e| !e.1).map(|e| e.2).collect();
             ran.sort_unstable();

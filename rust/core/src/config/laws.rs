@@ -217,13 +217,7 @@ pub struct EscapeParams {
 
 impl Default for EscapeParams {
     fn default() -> Self {
-        Self {
-            wander_speed: 1.5,
-            wander_turn: PI / 6.0,
-            fatigue_base: 0.9,
-            fatigue_slope: 0.25,
-            fatigue_delay: 100.0,
-        }
+        Self { wander_speed: 1.5, wander_turn: PI / 6.0, fatigue_base: 0.9, fatigue_slope: 0.25, fatigue_delay: 100.0 }
     }
 }
 

@@ -114,24 +114,13 @@ pub struct TargetSideParams {
 impl Default for TargetSideParams {
     fn default() -> Self {
         let s = SideParams::default();
-        Self {
-            v_max: s.v_max,
-            omega_max: s.omega_max,
-            mass: s.mass,
-            sense_radius: s.sense_radius,
-            fatigue: true,
-        }
+        Self { v_max: s.v_max, omega_max: s.omega_max, mass: s.mass, sense_radius: s.sense_radius, fatigue: true }
     }
 }
 
 impl TargetSideParams {
     pub fn side(&self) -> SideParams {
-        SideParams {
-            v_max: self.v_max,
-            omega_max: self.omega_max,
-            mass: self.mass,
-            sense_radius: self.sense_radius,
-        }
+        SideParams { v_max: self.v_max, omega_max: self.omega_max, mass: self.mass, sense_radius: self.sense_radius }
     }
 }
 

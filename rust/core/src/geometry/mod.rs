@@ -8,9 +8,9 @@ mod polygon;
 mod ring;
 mod triangle;
 
-pub use ring::{assign, hunting_points};
 pub use polygon::{edges, polygon_closest_point, polygon_contains, polygon_visible_extent, segment_disc_clip};
-pub use triangle::{body_triangle, BodyFrame, segments_intersect, triangle_contains, triangle_overlaps_circle, triangle_overlaps_polygon, triangles_overlap};
+pub use ring::{assign, hunting_points};
+pub use triangle::{body_triangle, segments_intersect, triangle_contains, triangle_overlaps_circle, triangle_overlaps_polygon, triangles_overlap, BodyFrame};
 
 /// An angular interval seen from a point: centre direction ψ, half-width Δ, and the surface
 /// distance d of the nearest point of the item.

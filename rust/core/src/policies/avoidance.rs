@@ -55,7 +55,6 @@ use crate::policies::saturator::{next_heading, saturate};
 pub use crate::scene::DangerMemory;
 use crate::scene::{Obstacle, ObstacleKind};
 
-
 /// Items kept per agent and step; more are dropped farthest first (12 obstacles + 4 walls +
 /// a few partners in the documented scenario).
 pub const MAX_ITEMS: usize = 32;
@@ -312,11 +311,7 @@ impl Merged {
     /// (static circles): the emergency's cause. Returns the heading straight away from
     /// its bisector.
     pub fn emergency(&self, d_danger: f64) -> Option<f64> {
-        self.as_slice()
-            .iter()
-            .filter(|iv| iv.dist < d_danger && !iv.exempt)
-            .min_by(|a, b| a.dist.total_cmp(&b.dist))
-            .map(|iv| wrap(iv.bisector() + PI))
+        self.as_slice().iter().filter(|iv| iv.dist < d_danger && !iv.exempt).min_by(|a, b| a.dist.total_cmp(&b.dist)).map(|iv| wrap(iv.bisector() + PI))
     }
 }
 
@@ -489,8 +484,8 @@ pub fn target_variant(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::DangerMemory;
+    use super::*;
     use crate::scene::AgentState;
 
     fn close(a: f64, b: f64) -> bool {
@@ -642,11 +637,7 @@ mod tests {
         // (5.9..6.1), (5.983..6.383); the last two merge into (5.9, 6.383), which runs 0.1
         // past 2π over the start 0.05 of the first → one interval (5.9, 2π + 0.5) of width
         // 0.883 and distance min(1.0, 0.9, 0.8) = 0.8.
-        let items = [
-            item(ItemKind::Wall, TAU - 0.1, 0.2, 1.0),
-            item(ItemKind::Wall, 0.275, 0.225, 0.9),
-            item(ItemKind::Wall, 6.0, 0.1, 0.8),
-        ];
+        let items = [item(ItemKind::Wall, TAU - 0.1, 0.2, 1.0), item(ItemKind::Wall, 0.275, 0.225, 0.9), item(ItemKind::Wall, 6.0, 0.1, 0.8)];
         let m = Merged::new(&items, &row, true);
         let s = m.as_slice();
         assert_eq!(s.len(), 1, "{s:?}");
@@ -720,24 +711,24 @@ mod tests {
     fn wall_emergency_follows_the_switch() {
         // A wolf 0.1 from the right wall (ψ = 0), heading π/2 + 0.1, target far away.
         for wall_emergency in [true, false] {
-        let mut w = World::new(vec![AgentState::at(9.9, 0.0, FRAC_PI_2 + 0.1)], vec![AgentState::at(0.0, 5.0, 0.0)], vec![]);
-        w.params.avoidance.wall_emergency = wall_emergency;
-        let mut d = DangerMemory::default();
-        let (v, th, mode) = wolf_mode(0, &w.snap(), 1.0, 0.1, &mut d, &mut [0u8; 2]);
-        if wall_emergency {
-            // Flee straight away from the wall (π); the turn from π/2 + 0.1 is π/2 − 0.1
-            // → v_max; the clock has two steps left.
-            assert_eq!(mode, Mode::Emergency);
-            assert!(aclose(th, PI) && v == 1.5, "({v}, {th})");
-            assert_eq!(d.steps_left, 2);
-        } else {
-            // Normal mode: Δ = acos(0.1/1.4) = 1.4993, κ = 1.6 → half-width 2.3989; θ_d = 0.1
-            // is nearer the upper edge → 2.3989 + 0.01; no clock.
-            assert_eq!(mode, Mode::Normal(true));
-            assert!(close(th, 1.6 * (0.1f64 / 1.4).acos() + 0.01) && v == 1.0, "({v}, {th})");
-            assert_eq!(d.steps_left, 0);
+            let mut w = World::new(vec![AgentState::at(9.9, 0.0, FRAC_PI_2 + 0.1)], vec![AgentState::at(0.0, 5.0, 0.0)], vec![]);
+            w.params.avoidance.wall_emergency = wall_emergency;
+            let mut d = DangerMemory::default();
+            let (v, th, mode) = wolf_mode(0, &w.snap(), 1.0, 0.1, &mut d, &mut [0u8; 2]);
+            if wall_emergency {
+                // Flee straight away from the wall (π); the turn from π/2 + 0.1 is π/2 − 0.1
+                // → v_max; the clock has two steps left.
+                assert_eq!(mode, Mode::Emergency);
+                assert!(aclose(th, PI) && v == 1.5, "({v}, {th})");
+                assert_eq!(d.steps_left, 2);
+            } else {
+                // Normal mode: Δ = acos(0.1/1.4) = 1.4993, κ = 1.6 → half-width 2.3989; θ_d = 0.1
+                // is nearer the upper edge → 2.3989 + 0.01; no clock.
+                assert_eq!(mode, Mode::Normal(true));
+                assert!(close(th, 1.6 * (0.1f64 / 1.4).acos() + 0.01) && v == 1.0, "({v}, {th})");
+                assert_eq!(d.steps_left, 0);
+            }
         }
-    }
     }
 
     #[test]

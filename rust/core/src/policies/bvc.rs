@@ -27,11 +27,11 @@
 //!   it stays.
 
 use super::Snapshot;
-/// The bvc law's memory: the pack's last sighting and the assigned hunting point.
-pub use crate::scene::BvcMemory as Memory;
 pub use crate::geometry::{assign, hunting_points};
 use crate::geometry::{edges, polygon_closest_point};
 use crate::math::{angle_of, cos, cross, sin, Point2, Vec2};
+/// The bvc law's memory: the pack's last sighting and the assigned hunting point.
+pub use crate::scene::BvcMemory as Memory;
 use crate::scene::Obstacle;
 
 /// [`assign`], memoised per thread: every wolf of the pack solves the same problem.

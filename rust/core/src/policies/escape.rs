@@ -25,12 +25,12 @@
 use rand::Rng;
 
 use super::avoidance;
-/// The `escape` and `random` laws' memory: their emergency.
-pub use crate::scene::EscapeMemory as Memory;
 use super::saturator::saturate;
 use super::{Command, Snapshot};
 use crate::config::EscapeParams;
 use crate::math::{angle_of, wrap, Vec2};
+/// The `escape` and `random` laws' memory: their emergency.
+pub use crate::scene::EscapeMemory as Memory;
 
 /// The `escape` law for target `j`.
 pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> Command {

@@ -47,9 +47,9 @@ use pathfinding::undirected::connected_components::connected_components;
 use super::Snapshot;
 use crate::config::FormationParams;
 use crate::math::{angle_of, cos, sin, unit, Vec2};
-use crate::scene::Obstacle;
 /// The formation law's memory: the pack's last sighting.
 pub use crate::scene::FormationMemory as Memory;
+use crate::scene::Obstacle;
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,9 +66,7 @@ pub fn obstacle_nodes(obstacles: &[Obstacle]) -> Vec<Disc> {
 /// Neighbours of every node: j is a neighbour of i when the gap between their discs is at
 /// most `wolf_diameter` (no wolf fits through).
 pub fn adjacency(nodes: &[Disc], wolf_diameter: f64) -> Vec<Vec<usize>> {
-    (0..nodes.len())
-        .map(|i| (0..nodes.len()).filter(|&j| j != i && (nodes[i].center - nodes[j].center).norm() <= nodes[i].radius + nodes[j].radius + wolf_diameter).collect())
-        .collect()
+    (0..nodes.len()).map(|i| (0..nodes.len()).filter(|&j| j != i && (nodes[i].center - nodes[j].center).norm() <= nodes[i].radius + nodes[j].radius + wolf_diameter).collect()).collect()
 }
 
 /// The merged structures: connected components of the obstacle graph, each sorted, ordered by
@@ -130,11 +128,8 @@ pub fn plan_path(start: Vec2, goal: Vec2, nodes: &[Disc], clearance: f64, ring_p
         }
     }
     let cost = |a: Vec2, b: Vec2| ((a - b).norm() / COST_UNIT).round() as u64;
-    let found = dijkstra(
-        &0usize,
-        |&i| (0..points.len()).filter(|&j| j != i && !blocked(points[i], points[j], &discs, clearance)).map(|j| (j, cost(points[i], points[j]))).collect::<Vec<_>>(),
-        |&i| i == 1,
-    );
+    let found =
+        dijkstra(&0usize, |&i| (0..points.len()).filter(|&j| j != i && !blocked(points[i], points[j], &discs, clearance)).map(|j| (j, cost(points[i], points[j]))).collect::<Vec<_>>(), |&i| i == 1);
     match found {
         Some((path, _)) => path.into_iter().map(|i| points[i]).collect(),
         None => vec![start, goal],

@@ -26,7 +26,6 @@ use crate::math::{angle_of, pow, Vec2};
 /// The seed000 law's memory: its last attraction and its emergency.
 pub use crate::scene::Seed000Memory as Memory;
 
-
 /// The command of wolf `i` for this step. Marks in `row` (wolf i's row of the interaction
 /// matrix) every other wolf whose information the law used.
 pub fn wolf_command(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8]) -> Command {

@@ -125,11 +125,7 @@ mod tests {
 
     #[test]
     fn lists_hold_exactly_the_obstacles_within_reach_in_index_order() {
-        let obstacles = vec![
-            Obstacle::circle(Vec2::new(0.0, 0.0), 1.0, false),
-            Obstacle::circle(Vec2::new(5.0, 0.0), 0.5, false),
-            Obstacle::circle(Vec2::new(2.4, 0.0), 0.3, true),
-        ];
+        let obstacles = vec![Obstacle::circle(Vec2::new(0.0, 0.0), 1.0, false), Obstacle::circle(Vec2::new(5.0, 0.0), 0.5, false), Obstacle::circle(Vec2::new(2.4, 0.0), 0.3, true)];
         let mut n = Neighbours::default();
         // Agent 0 at (2, 0), cut 1: disc 0 (centre 2 away, R + cut = 2) just in, disc 1 (3 away,
         // 1.5) out, disc 2 in. Agent 1 far from all.

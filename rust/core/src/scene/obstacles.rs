@@ -4,8 +4,8 @@ use rand::Rng;
 
 use crate::config::ObstacleParams;
 use crate::geometry::{self, Extent};
-use crate::normal::standard_normal;
 use crate::math::{angle_of, asin, rem_euclid_tau, sin_cos, unit, Vec2, FRAC_PI_2, TAU};
+use crate::normal::standard_normal;
 
 /// What an obstacle is, for the avoidance law's κ table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,13 +1,13 @@
 //! The world of SPEC §1: arena, agents, obstacles, sensing, one synchronous step.
 
+mod expert;
 mod layout;
 mod spawn;
-mod expert;
 mod step;
 
 pub use expert::Desired;
-pub(crate) use step::Controls;
 pub use layout::{Layout, LayoutObstacle};
+pub(crate) use step::Controls;
 // The types the world shares with the laws live below both (crate::scene); the world's
 // users find them here as well.
 pub use crate::scene::{cull_distance, near, AgentState, Near, Neighbours, Obstacle, ObstacleKind, TargetMemory, WolfMemory};
@@ -173,11 +173,7 @@ impl World {
             let who = if n == 0 { "wolf" } else { "target" };
             return Err(crate::error::Error::Layout(format!("needs at least one {who}")));
         }
-        let params = if (params.world.wolves, params.world.targets) == (n, m) {
-            params
-        } else {
-            Arc::new(params.with_counts(n, m))
-        };
+        let params = if (params.world.wolves, params.world.targets) == (n, m) { params } else { Arc::new(params.with_counts(n, m)) };
         params.validate().map_err(|e| crate::error::Error::Layout(e.to_string()))?;
         let (wolves, targets, obstacles) = spawn::from_layout(&params, layout)?;
         Ok(Self::assemble(params, seed, episode, wolves, targets, obstacles))

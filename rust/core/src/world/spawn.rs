@@ -8,12 +8,12 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::layout::{v2, Layout, LayoutObstacle};
-use crate::scene::PolygonDraw;
 use super::{AgentState, Obstacle};
 use crate::config::Params;
 use crate::error::{Error, Result};
 use crate::geometry::{body_triangle, triangles_overlap};
 use crate::math::{unit, Vec2, TAU};
+use crate::scene::PolygonDraw;
 
 /// Minimum centre distance between two spawned wolves (their bodies cannot touch, and no wolf
 /// starts in close-partner steering): the larger of twice the body size and 0.5 m.
@@ -36,8 +36,16 @@ pub(super) fn spawn(p: &Params, rng: &mut ChaCha8Rng) -> Result<Spawned> {
         "{last} (after {} attempts each, {} restarts): the arena world.border = {:?} is too small for world.wolves = {}, world.targets = {} and \
          obstacles.static_circles / moving_circles / static_polygons / moving_polygons = {} / {} / {} / {} at world.init_clearance = {} m; \
          lower one of them or widen world.border",
-        p.world.spawn_attempts, p.world.spawn_restarts, p.world.border, p.world.wolves, p.world.targets,
-        o.static_circles, o.moving_circles, o.static_polygons, o.moving_polygons, p.world.init_clearance
+        p.world.spawn_attempts,
+        p.world.spawn_restarts,
+        p.world.border,
+        p.world.wolves,
+        p.world.targets,
+        o.static_circles,
+        o.moving_circles,
+        o.static_polygons,
+        o.moving_polygons,
+        p.world.init_clearance
     )))
 }
 
@@ -95,7 +103,12 @@ fn try_spawn(p: &Params, rng: &mut ChaCha8Rng) -> std::result::Result<Spawned, S
     if (sx0 >= sx1 || sy0 >= sy1) && o.total() > 0 {
         return Err("arena shrunk by 2 m for obstacle centres is empty".into());
     }
-    let kinds = [("static circle", o.static_circles, false, false), ("moving circle", o.moving_circles, false, true), ("static polygon", o.static_polygons, true, false), ("moving polygon", o.moving_polygons, true, true)];
+    let kinds = [
+        ("static circle", o.static_circles, false, false),
+        ("moving circle", o.moving_circles, false, true),
+        ("static polygon", o.static_polygons, true, false),
+        ("moving polygon", o.moving_polygons, true, true),
+    ];
     let mut obstacles: Vec<Obstacle> = Vec::with_capacity(o.total());
     let mut draw = PolygonDraw::default();
     for (name, count, polygon, moving) in kinds {
@@ -106,9 +119,7 @@ fn try_spawn(p: &Params, rng: &mut ChaCha8Rng) -> std::result::Result<Spawned, S
                 // Whether a disc of radius r at c keeps its clearance. The comparisons are
                 // monotone in r (rounding included), so a candidate that fails at a lower bound
                 // of its radius fails at the radius itself.
-                let clear = |r: f64| {
-                    wolves.iter().chain(&targets).all(|a| (a.pos - c).norm() > r + d0) && obstacles.iter().all(|q| (q.center - c).norm() > r + d0 + q.radius)
-                };
+                let clear = |r: f64| wolves.iter().chain(&targets).all(|a| (a.pos - c).norm() > r + d0) && obstacles.iter().all(|q| (q.center - c).norm() > r + d0 + q.radius);
                 let ob = if polygon {
                     draw.redraw(rng, o);
                     if !clear(draw.radius_lower_bound(c)) {

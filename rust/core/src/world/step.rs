@@ -134,10 +134,7 @@ impl World {
     /// who computed it.
     fn non_finite_command(&self, wolves_given: bool, targets_given: bool) -> Option<String> {
         let p = &self.params;
-        let sides = [
-            ("wolf", &self.wolf_cmds, wolves_given, p.policies.wolves.as_str()),
-            ("target", &self.target_cmds, targets_given, p.policies.targets.as_str()),
-        ];
+        let sides = [("wolf", &self.wolf_cmds, wolves_given, p.policies.wolves.as_str()), ("target", &self.target_cmds, targets_given, p.policies.targets.as_str())];
         for (side, cmds, given, law) in sides {
             if let Some((i, c)) = cmds.iter().enumerate().find(|(_, c)| !(c.v.is_finite() && c.omega.is_finite())) {
                 let (who, why) = if given {
@@ -668,4 +665,3 @@ mod tests {
         assert!(!encircled(&ring[..2], Vec2::zeros()));
     }
 }
-
