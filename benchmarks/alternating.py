@@ -20,7 +20,6 @@ import argparse
 import time
 
 import numpy as np
-
 from wolfpack import BatchEnv
 
 

@@ -28,7 +28,6 @@ import time
 from pathlib import Path
 
 from tqdm import tqdm
-
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
 from wolfpack.scorecard import BASELINES_FILE, DEFAULT_EPISODES, SKILL
 from wolfpack.task import TASK_ORDER, task_params
@@ -75,10 +74,8 @@ def main(argv: list[str] | None = None) -> int:
         "first_seed": args.seed,
         "command": "python benchmarks/benchmark_baselines.py" + ("" if argv is None else " " + " ".join(argv)),
         "seconds": round(time.time() - started, 1),
-        "wolves": {w: {"kind": "law", "tasks": {task: scored(pairings[task][w][scripted[task]["targets"]], "wolves", args.episodes) for task in TASK_ORDER}}
-                   for w in WOLF_LAWS},
-        "targets": {t: {"kind": "law", "tasks": {task: scored(pairings[task][scripted[task]["wolves"]][t], "targets", args.episodes) for task in TASK_ORDER}}
-                    for t in TARGET_LAWS},
+        "wolves": {w: {"kind": "law", "tasks": {task: scored(pairings[task][w][scripted[task]["targets"]], "wolves", args.episodes) for task in TASK_ORDER}} for w in WOLF_LAWS},
+        "targets": {t: {"kind": "law", "tasks": {task: scored(pairings[task][scripted[task]["wolves"]][t], "targets", args.episodes) for task in TASK_ORDER}} for t in TARGET_LAWS},
         "pairings": pairings,
     }
     args.out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")

@@ -53,19 +53,63 @@ TRAINERS = ("native", "sb3")
 PINNED_CORES = 2
 
 
-def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: Path, evaluations: int, eval_episodes: int, device: str,
-            pinned: bool = False) -> list[str]:
+def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: Path, evaluations: int, eval_episodes: int, device: str, pinned: bool = False) -> list[str]:
     if trainer == "native":
         threads = ["--threads", str(PINNED_CORES), "--torch-threads", str(PINNED_CORES)] if pinned else []
-        return [sys.executable, "-m", "wolfpack.cli", "train", "--side", side, "--algo", algo, "--seed", str(seed), "--time-limit", str(minutes),
-                "--evaluations", str(evaluations), "--eval-episodes", str(eval_episodes), "--device", device, "--out", str(out), "--no-progress",
-                *threads]
+        return [
+            sys.executable,
+            "-m",
+            "wolfpack.cli",
+            "train",
+            "--side",
+            side,
+            "--algo",
+            algo,
+            "--seed",
+            str(seed),
+            "--time-limit",
+            str(minutes),
+            "--evaluations",
+            str(evaluations),
+            "--eval-episodes",
+            str(eval_episodes),
+            "--device",
+            device,
+            "--out",
+            str(out),
+            "--no-progress",
+            *threads,
+        ]
     # SB3's budget is in timesteps: a ceiling it never reaches in the time limit, and held-out
     # evaluations at the same count per run as the native trainer's, from its measured rate.
     ceiling = 10**10
-    return [sys.executable, str(ROOT / "training" / "train.py"), "--side", side, "--algo", "ppo", "--seed", str(seed), "--timesteps", str(ceiling),
-            "--time-limit", str(minutes), "--eval-freq", str(max(1, int(7_000 * 60 * minutes / evaluations))), "--eval-episodes", str(eval_episodes),
-            "--checkpoint-freq", str(ceiling), "--threads", "2", "--torch-threads", "2", "--out", str(out), "--no-progress"]
+    return [
+        sys.executable,
+        str(ROOT / "training" / "train.py"),
+        "--side",
+        side,
+        "--algo",
+        "ppo",
+        "--seed",
+        str(seed),
+        "--timesteps",
+        str(ceiling),
+        "--time-limit",
+        str(minutes),
+        "--eval-freq",
+        str(max(1, int(7_000 * 60 * minutes / evaluations))),
+        "--eval-episodes",
+        str(eval_episodes),
+        "--checkpoint-freq",
+        str(ceiling),
+        "--threads",
+        "2",
+        "--torch-threads",
+        "2",
+        "--out",
+        str(out),
+        "--no-progress",
+    ]
 
 
 def skill(side: str, row: dict) -> float:
@@ -98,8 +142,12 @@ def spread(values: list[float]) -> dict | None:
 
 
 def summarise(runs: list[dict]) -> dict:
-    out = {"seeds": len(runs), "agent_steps_per_s": spread([r["agent_steps_per_s"] for r in runs]),
-           "final_skill": spread([r["points"][-1][2] for r in runs]), "final_collision_rate": spread([r["points"][-1][3] for r in runs])}
+    out = {
+        "seeds": len(runs),
+        "agent_steps_per_s": spread([r["agent_steps_per_s"] for r in runs]),
+        "final_skill": spread([r["points"][-1][2] for r in runs]),
+        "final_collision_rate": spread([r["points"][-1][3] for r in runs]),
+    }
     for level in LEVELS:
         hits = [first_reaching(r["points"], level) for r in runs]
         reached = [h for h in hits if h is not None]
@@ -113,13 +161,18 @@ def summarise(runs: list[dict]) -> dict:
 
 def table(doc: dict) -> str:
     what = "capture vs escape" if doc["side"] == "wolves" else "survival vs seed000"
-    lines = [f"{doc['side']}, {what}; {doc['minutes']} min per run, seeds {doc['seed_list']}; {doc['machine'].get('cpu', '')}",
-             "| trainer | agent-steps/s | final skill | " + " | ".join(f"to {int(100 * l)} % (min; reached)" for l in LEVELS) + " |",
-             "|---|---|---|" + "---|" * len(LEVELS)]
+    lines = [
+        f"{doc['side']}, {what}; {doc['minutes']} min per run, seeds {doc['seed_list']}; {doc['machine'].get('cpu', '')}",
+        "| trainer | agent-steps/s | final skill | " + " | ".join(f"to {int(100 * level)} % (min; reached)" for level in LEVELS) + " |",
+        "|---|---|---|" + "---|" * len(LEVELS),
+    ]
     for trainer, s in doc["trainers"].items():
         rate = s["agent_steps_per_s"]
-        cells = [trainer, f"{rate['median'] / 1000:.1f}k ({rate['min'] / 1000:.1f}–{rate['max'] / 1000:.1f}k)",
-                 f"{100 * s['final_skill']['median']:.1f} % ({100 * s['final_skill']['min']:.1f}–{100 * s['final_skill']['max']:.1f})"]
+        cells = [
+            trainer,
+            f"{rate['median'] / 1000:.1f}k ({rate['min'] / 1000:.1f}–{rate['max'] / 1000:.1f}k)",
+            f"{100 * s['final_skill']['median']:.1f} % ({100 * s['final_skill']['min']:.1f}–{100 * s['final_skill']['max']:.1f})",
+        ]
         for level in LEVELS:
             r = s[f"reach_{int(level * 100)}"]
             m = r["minutes"]
@@ -132,7 +185,7 @@ def run_jobs(jobs: list[tuple[str, int]], folders: dict, args: argparse.Namespac
     """Runs every (trainer, seed) job, ``args.parallel`` at a time (each on its own pinned cores
     when more than one); the exit status of the first that failed (its stderr printed), else 0."""
     pinned = args.parallel > 1
-    free = [cores[PINNED_CORES * k:PINNED_CORES * (k + 1)] for k in range(args.parallel)]
+    free = [cores[PINNED_CORES * k : PINNED_CORES * (k + 1)] for k in range(args.parallel)]
     running: list[tuple[subprocess.Popen, list[int], object]] = []
     pending = list(jobs)
     failed = 0
@@ -182,16 +235,26 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--keep", default=None, metavar="DIR", help="keep every run's folder under DIR (default: a temporary folder)")
     p.add_argument("--json", action="store_true", help="print the JSON document instead of the table")
     p.add_argument("--out", default=None, help="also write the JSON document here")
-    p.add_argument("--parallel", type=int, default=1, metavar="N",
-                   help=f"runs at once, each pinned to its own {PINNED_CORES} cores (default 1: one after another, unpinned)")
+    p.add_argument("--parallel", type=int, default=1, metavar="N", help=f"runs at once, each pinned to its own {PINNED_CORES} cores (default 1: one after another, unpinned)")
     args = p.parse_args(argv)
     cores = sorted(os.sched_getaffinity(0))
     if args.parallel < 1 or (args.parallel > 1 and args.parallel * PINNED_CORES > len(cores)):
         p.error(f"--parallel {args.parallel}: needs {PINNED_CORES} cores a run, and this process may use {len(cores)}")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    doc = {"side": args.side, "algo": args.algo, "minutes": args.minutes, "seed_list": seeds, "evaluations": args.evaluations, "parallel": args.parallel,
-           "eval_episodes": args.eval_episodes, "machine": machine_info(), "started": time.strftime("%Y-%m-%d %H:%M:%S"), "trainers": {}, "runs": {}}
+    doc = {
+        "side": args.side,
+        "algo": args.algo,
+        "minutes": args.minutes,
+        "seed_list": seeds,
+        "evaluations": args.evaluations,
+        "parallel": args.parallel,
+        "eval_episodes": args.eval_episodes,
+        "machine": machine_info(),
+        "started": time.strftime("%Y-%m-%d %H:%M:%S"),
+        "trainers": {},
+        "runs": {},
+    }
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(args.keep) if args.keep else Path(scratch)
         base.mkdir(parents=True, exist_ok=True)

@@ -250,10 +250,7 @@ class Vmas:
 
     def info(self) -> dict:
         return {
-            "scenario": (
-                f"vmas simple_tag, num_envs={self.E}, cpu, num_good_agents={COUNTS['targets']}, "
-                f"num_adversaries={COUNTS['wolves']}, num_landmarks={COUNTS['obstacles']}, max_steps=None"
-            ),
+            "scenario": (f"vmas simple_tag, num_envs={self.E}, cpu, num_good_agents={COUNTS['targets']}, num_adversaries={COUNTS['wolves']}, num_landmarks={COUNTS['obstacles']}, max_steps=None"),
             "torch_threads": self.torch.get_num_threads(),
             "agents": [a.name for a in self.env.agents],
         }

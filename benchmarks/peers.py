@@ -206,9 +206,7 @@ def machine_info() -> dict:
         "python": platform.python_version(),
         "load_average": loadavg(),
         "wolfpack_source": wolfpack_source(),
-        "packages": {
-            p: version(p) for p in ("wolfpack", "numpy", "mpe2", "pettingzoo", "gymnasium", "stable_baselines3", "vmas", "torch")
-        },
+        "packages": {p: version(p) for p in ("wolfpack", "numpy", "mpe2", "pettingzoo", "gymnasium", "stable_baselines3", "vmas", "torch")},
     }
 
 
@@ -457,10 +455,7 @@ class Mpe2(Contender):
         for t in range(min(self.steps, 50)):  # warm-up
             env.step(self.plan[t])
         self.info = {
-            "scenario": (
-                f"simple_tag_v3.parallel_env(num_adversaries={COUNTS['wolves']}, num_good={COUNTS['targets']}, "
-                f"num_obstacles={COUNTS['obstacles']}, continuous_actions=True)"
-            ),
+            "scenario": (f"simple_tag_v3.parallel_env(num_adversaries={COUNTS['wolves']}, num_good={COUNTS['targets']}, num_obstacles={COUNTS['obstacles']}, continuous_actions=True)"),
             "steps": self.steps,
         }
 
@@ -510,9 +505,7 @@ class Worker:
     def __init__(self, python: str, name: str) -> None:
         self.name = name
         env = dict(os.environ, JAX_PLATFORMS="cpu", PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(
-            [python, str(WORKER), "--serve"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env, cwd=str(ROOT)
-        )
+        self.proc = subprocess.Popen([python, str(WORKER), "--serve"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env, cwd=str(ROOT))
         self.hello = self.call({"op": "info", "peers": [name]})
 
     def call(self, req: dict) -> dict:
@@ -551,9 +544,7 @@ class Remote(Contender):
         self.skipped = why_not
 
     def prepare(self) -> None:
-        self.info = self.worker.call(
-            {"op": "prepare", "id": self.key, "kind": self.kind, "num_envs": self.num_envs, "target_s": self.target_s, "steps": self.steps}
-        )
+        self.info = self.worker.call({"op": "prepare", "id": self.key, "kind": self.kind, "num_envs": self.num_envs, "target_s": self.target_s, "steps": self.steps})
 
     def measure(self) -> tuple[int, float]:
         r = self.worker.call({"op": "measure", "id": self.key})
@@ -676,7 +667,7 @@ def size_ratios(row: dict, threads: list[int]) -> dict:
 
 
 def caches_text(caches: dict[str, int] | None) -> str:
-    """", caches L2 1 MiB, L3 32 MiB" (per core, from ``cpu_caches``), or "" when unknown."""
+    """ ", caches L2 1 MiB, L3 32 MiB" (per core, from ``cpu_caches``), or "" when unknown."""
     if not caches:
         return ""
     size = lambda b: f"{b // 1024**2} MiB" if b % 1024**2 == 0 else f"{b // 1024} KiB"  # noqa: E731
@@ -709,9 +700,7 @@ def tables(report: dict) -> str:
         f"{report['repeats']} interleaved rounds, median; ~{report['target_seconds']} s per measurement",
         f"load average (1, 5, 15 min) at the start: {m['load_average']}, at the end: {m.get('load_average_after')}",
         "per round, load before -> after (it counts this benchmark, 1-2 on 2 cores), and the cores other processes used: "
-        + "; ".join(
-            f"{r['round']}: {r['load_before']} -> {r['load_after']}, others {r['others_cores']} ({r['seconds']:.0f} s)" for r in report["rounds"]
-        ),
+        + "; ".join(f"{r['round']}: {r['load_before']} -> {r['load_after']}, others {r['others_cores']} ({r['seconds']:.0f} s)" for r in report["rounds"]),
         "",
         "env-steps/s by batch size E (an env-step = one world advanced one step); ratios of the medians,"
         " and 'lowest round' the smallest of the ratios taken round by round (both sides of each from the same round):",
@@ -748,12 +737,13 @@ def tables(report: dict) -> str:
         once.append(("mpe2 simple_tag (E = 1 only: one world)", fmt_rate(r["env_steps_per_second"]), f"{r['steps']} env.step calls"))
         once.append(("mpe2 world.step() only", fmt_rate(r.get("physics_only_env_steps_per_second")), "physics alone: no obs, rewards, wrappers"))
     ref = report["reference"]
-    once.append((
-        "Python reference impl. (quoted)",
-        f"~{ref['env_steps_per_second']:.0f}",
-        f"first snapshot {ref['first_snapshot_range'][0]:.0f}-{ref['first_snapshot_range'][1]:.0f}, "
-        f"latest {ref['latest_snapshot_range'][0]:.0f}-{ref['latest_snapshot_range'][1]:.0f}",
-    ))
+    once.append(
+        (
+            "Python reference impl. (quoted)",
+            f"~{ref['env_steps_per_second']:.0f}",
+            f"first snapshot {ref['first_snapshot_range'][0]:.0f}-{ref['first_snapshot_range'][1]:.0f}, latest {ref['latest_snapshot_range'][0]:.0f}-{ref['latest_snapshot_range'][1]:.0f}",
+        )
+    )
     w0 = max(len(a) for a, _, _ in once)
     w1 = max(len("env-steps/s"), *(len(b) for _, b, _ in once))
     out.append(f"| {'simulator':<{w0}} | {'env-steps/s':>{w1}} | notes |")
@@ -831,9 +821,7 @@ def main(argv: list[str] | None = None) -> int:
     report: dict[str, Any] = {
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "command": " ".join(
-            ([f"PYTHONPATH={os.environ['PYTHONPATH']}"] if os.environ.get("PYTHONPATH") else [])
-            + ["python", os.path.relpath(__file__, ROOT)]
-            + (sys.argv[1:] if argv is None else list(argv))
+            ([f"PYTHONPATH={os.environ['PYTHONPATH']}"] if os.environ.get("PYTHONPATH") else []) + ["python", os.path.relpath(__file__, ROOT)] + (sys.argv[1:] if argv is None else list(argv))
         ),
         "note": args.note,
         "machine": machine_info(),
@@ -905,7 +893,7 @@ def main(argv: list[str] | None = None) -> int:
     rounds = []
     shift = max(1, math.ceil(len(live) / max(repeats, 1)))
     for r in range(repeats):
-        order = live[(r * shift) % len(live):] + live[: (r * shift) % len(live)] if live else []
+        order = live[(r * shift) % len(live) :] + live[: (r * shift) % len(live)] if live else []
         pids = [os.getpid()] + [w.proc.pid for w in workers.values()]
         before, ticks, t0 = loadavg(), cpu_ticks(pids), time.perf_counter()
         note(f"[round {r + 1}/{repeats}] {len(order)} measurements, load {before}")
@@ -920,15 +908,17 @@ def main(argv: list[str] | None = None) -> int:
                 c.skipped = f"failed: {type(e).__name__}: {e}"
                 note(f"[{c.key}] skipped: {c.skipped}")
         secs = time.perf_counter() - t0
-        rounds.append({
-            "round": r + 1,
-            "load_before": before,
-            "load_after": loadavg(),
-            "seconds": secs,
-            # CPU used by every other process on the machine during the round, in cores (0 = the
-            # benchmark had the machine to itself; the load average counts the benchmark too).
-            "others_cores": others_share(ticks, cpu_ticks(pids), secs),
-        })
+        rounds.append(
+            {
+                "round": r + 1,
+                "load_before": before,
+                "load_after": loadavg(),
+                "seconds": secs,
+                # CPU used by every other process on the machine during the round, in cores (0 = the
+                # benchmark had the machine to itself; the load average counts the benchmark too).
+                "others_cores": others_share(ticks, cpu_ticks(pids), secs),
+            }
+        )
     report["rounds"] = rounds
     for c in contenders:
         c.close()

@@ -68,8 +68,9 @@ def bench_wolfpack_frames(frames: int, repeats: int, sensing_and_links: bool) ->
 def bench_mpe2_frames(frames: int, repeats: int) -> dict:
     from mpe2 import simple_tag_v3
 
-    env = simple_tag_v3.parallel_env(num_good=COUNTS["targets"], num_adversaries=COUNTS["wolves"], num_obstacles=COUNTS["obstacles"],
-                                     max_cycles=frames + 10, continuous_actions=True, render_mode="rgb_array")
+    env = simple_tag_v3.parallel_env(
+        num_good=COUNTS["targets"], num_adversaries=COUNTS["wolves"], num_obstacles=COUNTS["obstacles"], max_cycles=frames + 10, continuous_actions=True, render_mode="rgb_array"
+    )
     rng = np.random.default_rng(0)
     runs = []
     shape = None

@@ -47,8 +47,7 @@ def rss_mb(pid: int | str = "self") -> float | None:
 def growth(samples: list[float]) -> dict:
     """Warm RSS (at 20 % of the run), last and peak, and the growth after warm-up (MB)."""
     warm = samples[len(samples) // 5]
-    return {"rss_warm_mb": round(warm, 1), "rss_last_mb": round(samples[-1], 1), "rss_peak_mb": round(max(samples), 1),
-            "growth_mb": round(samples[-1] - warm, 1)}
+    return {"rss_warm_mb": round(warm, 1), "rss_last_mb": round(samples[-1], 1), "rss_peak_mb": round(max(samples), 1), "growth_mb": round(samples[-1] - warm, 1)}
 
 
 def mean_episode_steps(law: str) -> float:
@@ -78,9 +77,18 @@ def soak_cli(law: str, steps: int, threads: int | None) -> dict:
         raise SystemExit(f"soak cli {law}: exit {proc.returncode}: {err.strip()}")
     summary = json.loads(out)
     finite = all(v is None or isinstance(v, (int, str)) or v == v and abs(v) != float("inf") for v in summary.values())
-    return {"law": law, "path": "cli", "episodes": episodes, "env_steps": summary["total_steps"], "seconds": round(seconds, 1),
-            "env_steps_per_second": round(summary["total_steps"] / seconds), "finite": finite, "samples": len(samples),
-            "capture_rate": summary["capture_rate"], **growth(samples or [0.0])}
+    return {
+        "law": law,
+        "path": "cli",
+        "episodes": episodes,
+        "env_steps": summary["total_steps"],
+        "seconds": round(seconds, 1),
+        "env_steps_per_second": round(summary["total_steps"] / seconds),
+        "finite": finite,
+        "samples": len(samples),
+        "capture_rate": summary["capture_rate"],
+        **growth(samples or [0.0]),
+    }
 
 
 BATCH_CHILD = textwrap.dedent("""
@@ -124,9 +132,17 @@ def soak_batch(law: str, steps: int, threads: int | None) -> dict:
     if proc.returncode != 0:
         raise SystemExit(f"soak batch {law}: exit {proc.returncode}: {proc.stderr.strip()[-2000:]}")
     r = json.loads(proc.stdout)
-    return {"law": law, "path": "batch", "env_steps": r["env_steps"], "seconds": round(r["seconds"], 1),
-            "env_steps_per_second": round(r["env_steps"] / r["seconds"]), "finite": r["non_finite_outputs"] == 0,
-            "agents_outside": r["agents_outside"], "samples": len(r["samples"]), **growth(r["samples"])}
+    return {
+        "law": law,
+        "path": "batch",
+        "env_steps": r["env_steps"],
+        "seconds": round(r["seconds"], 1),
+        "env_steps_per_second": round(r["env_steps"] / r["seconds"]),
+        "finite": r["non_finite_outputs"] == 0,
+        "agents_outside": r["agents_outside"],
+        "samples": len(r["samples"]),
+        **growth(r["samples"]),
+    }
 
 
 def main() -> None:
@@ -143,9 +159,12 @@ def main() -> None:
             row = (soak_cli if path == "cli" else soak_batch)(law, args.steps, args.threads)
             rows.append(row)
             if not args.json:
-                print(f"{law:<10} {path:<6} {row['env_steps']:>10} steps {row['seconds']:>7.1f} s {row['env_steps_per_second']:>8} /s  "
-                      f"RSS warm {row['rss_warm_mb']:>6.1f} MB last {row['rss_last_mb']:>6.1f} peak {row['rss_peak_mb']:>6.1f} "
-                      f"growth {row['growth_mb']:+.1f} MB  finite {row['finite']}  outside {row.get('agents_outside', '-')}", flush=True)
+                print(
+                    f"{law:<10} {path:<6} {row['env_steps']:>10} steps {row['seconds']:>7.1f} s {row['env_steps_per_second']:>8} /s  "
+                    f"RSS warm {row['rss_warm_mb']:>6.1f} MB last {row['rss_last_mb']:>6.1f} peak {row['rss_peak_mb']:>6.1f} "
+                    f"growth {row['growth_mb']:+.1f} MB  finite {row['finite']}  outside {row.get('agents_outside', '-')}",
+                    flush=True,
+                )
     load = os.getloadavg()
     report = {"rows": rows, "load_average": [round(x, 2) for x in load], "cpus": os.cpu_count()}
     if args.json:

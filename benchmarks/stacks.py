@@ -43,9 +43,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from peers import machine_info  # noqa: E402
-
 import wolfpack  # noqa: E402
+from peers import machine_info  # noqa: E402
 from wolfpack import _core  # noqa: E402
 
 

@@ -27,7 +27,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peers import machine_info  # noqa: E402
-
 from wolfpack import BatchEnv  # noqa: E402
 
 SPIN = "while True: pass"

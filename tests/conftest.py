@@ -41,8 +41,7 @@ def layout_dict() -> dict:
         "targets": [[0.0, 0.0, 3.0]],
         "obstacles": [
             {"kind": "circle", "center": [5.0, 5.0], "radius": 0.8, "moving": True},
-            {"kind": "polygon", "center": [-5.0, 5.0], "moving": True,
-             "vertices": [[-4.0, 5.0], [-5.0, 6.0], [-5.6, 5.6], [-6.0, 5.0], [-5.0, 4.0]]},
+            {"kind": "polygon", "center": [-5.0, 5.0], "moving": True, "vertices": [[-4.0, 5.0], [-5.0, 6.0], [-5.6, 5.6], [-6.0, 5.0], [-5.0, 4.0]]},
         ],
     }
 

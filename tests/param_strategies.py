@@ -11,11 +11,10 @@ from __future__ import annotations
 import math
 
 from hypothesis import strategies as st
-
 from wolfpack import _core
 
 DEFAULTS = _core.default_params()
-LIMITS = {l["key"]: l for l in _core.param_limits()}
+LIMITS = {limit["key"]: limit for limit in _core.param_limits()}
 
 
 def default_of(key: str):
@@ -71,9 +70,11 @@ def valid_value(key: str) -> st.SearchStrategy:
     if key == "world.border":
         # Each coordinate in range, width and height in [1, 1e4] as the validator computes them
         # (x_max − x_min in floating point: x_min + 1 − x_min can round to 0.9999999999999998).
-        return st.tuples(st.floats(-1e4, 9e3), st.floats(-1e4, 9e3), st.floats(1, 1e3), st.floats(1, 1e3)).map(
-            lambda t: [t[0], t[1], min(t[0] + t[2], 1e4), min(t[1] + t[3], 1e4)]).filter(
-            lambda b: 1 <= b[2] - b[0] <= 1e4 and 1 <= b[3] - b[1] <= 1e4)
+        return (
+            st.tuples(st.floats(-1e4, 9e3), st.floats(-1e4, 9e3), st.floats(1, 1e3), st.floats(1, 1e3))
+            .map(lambda t: [t[0], t[1], min(t[0] + t[2], 1e4), min(t[1] + t[3], 1e4)])
+            .filter(lambda b: 1 <= b[2] - b[0] <= 1e4 and 1 <= b[3] - b[1] <= 1e4)
+        )
     if isinstance(d, (list, tuple)):  # an ordered [lo, hi] pair
         return st.lists(_scalar_in(key), min_size=2, max_size=2).map(sorted)
     return _scalar_in(key)
@@ -84,8 +85,11 @@ def invalid_value(key: str) -> st.SearchStrategy:
     lim = limit_of(key)
     lo, hi = lim["lo"], lim["hi"]
     integer = is_integer(key)
-    below = (st.integers(-2**40, math.ceil(lo) - (0 if lim["open_lo"] and float(lo).is_integer() else 1)) if integer
-             else st.floats(-1e308, lo, exclude_max=not lim["open_lo"], allow_nan=False, allow_infinity=False))
+    below = (
+        st.integers(-(2**40), math.ceil(lo) - (0 if lim["open_lo"] and float(lo).is_integer() else 1))
+        if integer
+        else st.floats(-1e308, lo, exclude_max=not lim["open_lo"], allow_nan=False, allow_infinity=False)
+    )
     above = st.integers(int(hi) + 1, 2**62) if integer else st.floats(hi, 1e308, exclude_min=True, allow_nan=False, allow_infinity=False)
     special = st.sampled_from([math.nan, math.inf, -math.inf, 1e308, -1e308])
     wrong_type = st.one_of(st.text(max_size=4), st.just({"deep": {"er": 1}}), st.just([[[1]]]))

@@ -331,8 +331,7 @@ class RefWorld:
             a1 = (d - S["radius"]) * (tgt.p - pi_) / d ** S["tau1"]
             self.hits["wolf senses"] += 1
         else:
-            sensing = [(float(np.linalg.norm(W[j].p - pi_)), j) for j in range(self.n)
-                       if j != i and float(np.linalg.norm(tgt.p - W[j].p)) <= rw]
+            sensing = [(float(np.linalg.norm(W[j].p - pi_)), j) for j in range(self.n) if j != i and float(np.linalg.norm(tgt.p - W[j].p)) <= rw]
             hunting = [(d, j) for d, j in sensing if self.wolf_target[j] == self.wolf_target[i]]
             self.hits["follow readings differ (M > 1)"] += min(sensing, default=(0, None)) != min(hunting, default=(0, None))
             if READINGS["follow_same_target_only"]:
@@ -393,17 +392,14 @@ class RefWorld:
             return v_d, th_d
         kappa = A["wolf_single"] if len(items) == 1 else A["wolf_multi"]
         self.hits.update(f"wolf {kind} item" for kind, *_ in items)
-        arcs = merge_arcs([(psi, kappa["wall"] * delta if kind == "wall" else delta, self.danger_dist(kind, d))
-                           for kind, psi, delta, d in items])
+        arcs = merge_arcs([(psi, kappa["wall"] * delta if kind == "wall" else delta, self.danger_dist(kind, d)) for kind, psi, delta, d in items])
         v_max = P["agents"]["wolf"]["v_max"]
         self.hits["partner closer than D_DANGER"] += any(k == "partner" and d < A["danger_distance"] for k, _, _, d in items)
         em = self.emergency_or_none(me, mem, arcs, v_max)
         if em is not None:
             return em
         # close partner: within D_DANGER_W and ahead (within π/2 of θ_d)
-        close = [o for k, o in enumerate(self.wolves) if k != i
-                 and float(np.linalg.norm(o.p - me.p)) < S["partner_danger"]
-                 and abs(wrap_pi(angle_of(o.p - me.p) - th_d)) < PI / 2]
+        close = [o for k, o in enumerate(self.wolves) if k != i and float(np.linalg.norm(o.p - me.p)) < S["partner_danger"] and abs(wrap_pi(angle_of(o.p - me.p) - th_d)) < PI / 2]
         if close:
             self.hits["wolf close partner"] += 1
             s = sum(((me.p - o.p) / float((me.p - o.p) @ (me.p - o.p)) for o in close), np.zeros(2))
@@ -539,8 +535,7 @@ class RefWorld:
                     self.hits["wolf speed halved" + ("" if inside else " (border)")] += 1
                     if v < 0.01:
                         v = 0.0  # below 0.01 it only turns ...
-                        if (READINGS["turn_on_spot_checked"] and om != 0.0
-                                and not feasible(w.x, w.y, th) and feasible(w.x, w.y, w.th)):
+                        if READINGS["turn_on_spot_checked"] and om != 0.0 and not feasible(w.x, w.y, th) and feasible(w.x, w.y, w.th):
                             th, om = w.th, 0.0  # ... unless that turn itself overlaps a wolf
                             self.hits["wolf turn refused"] += 1
                         break
@@ -569,8 +564,7 @@ class RefWorld:
             self.targets[j] = Agent(x, y, th, v, om, T.energy + 0.5 * side["mass"] * v * v)
 
     def judge(self):
-        collided = any(triangles_overlap(self.bodies[i], self.bodies[k])
-                       for i in range(self.n) for k in range(self.n) if k != i)
+        collided = any(triangles_overlap(self.bodies[i], self.bodies[k]) for i in range(self.n) for k in range(self.n) if k != i)
         cd = self.P["capture"]["distance"]
         for j, T in enumerate(self.targets):
             if not self.captured[j] and sum(float(np.linalg.norm(w.p - T.p)) <= cd for w in self.wolves) >= self.need:

@@ -21,11 +21,9 @@ import math
 
 import numpy as np
 import pytest
-
 import wolfpack
-from wolfpack import _core
-
 from reference_model import RefWorld, saturate, wrap_pi
+from wolfpack import _core
 
 ATOL = 1e-9
 SLOW_SPEED = 1e-3  # m/s: below it an agent's heading is not compared (see _first_mismatch)
@@ -65,8 +63,7 @@ def make_layout(rng, n_wolves=5, n_targets=1, box=((-6.0, -6.0), (6.0, 6.0)), ne
         else:
             p = rng.uniform(*target_box)
         nearest = min(np.hypot(*(p - q)) for q in wolves)
-        if (np.all(np.abs(p) < 9.9) and near[0] <= nearest <= near[1]
-                and all(np.hypot(*(p - q)) >= 0.6 for q in targets)):
+        if np.all(np.abs(p) < 9.9) and near[0] <= nearest <= near[1] and all(np.hypot(*(p - q)) >= 0.6 for q in targets):
             targets.append(p)
     assert len(targets) == n_targets, "layout generator: cannot place the targets"
     pose = lambda p: [float(p[0]), float(p[1]), float(rng.uniform(0, 2 * math.pi))]  # noqa: E731
@@ -119,22 +116,18 @@ for s in range(3):  # wolves hunt their nearest target, re-assigned every retarg
 # a wolf j that senses wolf i's target but hunts the other one (the followed-partner reading)
 CASES.append(("two-targets-3", dict(seed=1017, n_targets=2), {}, ["follow readings differ (M > 1)"]))
 for s in range(2):  # one target is captured (and freezes) well before the other: re-assignment
-    CASES.append((f"two-targets-still-{s}", dict(seed=450 + s, n_targets=2),
-                  {"policies.targets": "still", "capture.count": 3}, ["wolf follows"]))
+    CASES.append((f"two-targets-still-{s}", dict(seed=450 + s, n_targets=2), {"policies.targets": "still", "capture.count": 3}, ["wolf follows"]))
 for s in range(3):  # the project's defaults: walls exempt from the emergency
-    CASES.append((f"defaults-{s}", dict(seed=800 + s, box=[((5.5, -9.6), (9.6, 9.6)), ((-6.0, -6.0), (6.0, 6.0))][s % 2]),
-                  {"avoidance.wall_emergency": False}, ["wolf wall item", "target edge"]))
+    CASES.append((f"defaults-{s}", dict(seed=800 + s, box=[((5.5, -9.6), (9.6, 9.6)), ((-6.0, -6.0), (6.0, 6.0))][s % 2]), {"avoidance.wall_emergency": False}, ["wolf wall item", "target edge"]))
 for s in range(2):  # the target variant's "nearer edge" measured from θ (SPEC's wording) instead of θ_d
-    CASES.append((f"target-edge-from-heading-{s}", dict(seed=850 + s, box=((5.5, -9.6), (9.6, 9.6))),
-                  {"avoidance.target_edge_from_desired": False}, ["target edge", "emergency trigger"]))
+    CASES.append((f"target-edge-from-heading-{s}", dict(seed=850 + s, box=((5.5, -9.6), (9.6, 9.6))), {"avoidance.target_edge_from_desired": False}, ["target edge", "emergency trigger"]))
 CASES.append(("eight-wolves", dict(seed=700, n_wolves=8, box=((-4.0, -4.0), (4.0, 4.0))), {}, ["wolf close partner"]))
 for s in range(2):
     CASES.append((f"three-wolves-{s}", dict(seed=500 + s, n_wolves=3), {"capture.count": 3}, ["wolf early exit"]))
 # the target senses from farther than the wolves: wolves start lost (zero attraction)
 CASES.append(("lost-start", dict(seed=600, near=(3.2, 4.3)), {"agents.target.sense_radius": 4.5}, ["wolf lost, zero", "target coasts"]))
 for s, seed in enumerate([610, 611]):  # slow wolves: the target outruns them, they go on lost
-    CASES.append((f"lost-later-{s}", dict(seed=seed, n_wolves=3),
-                  {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0}, ["wolf lost", "target coasts"]))
+    CASES.append((f"lost-later-{s}", dict(seed=seed, n_wolves=3), {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0}, ["wolf lost", "target coasts"]))
 for s in range(CLOSE_STARTS):  # wolves 1.4–2.4 m from the target, as the reference starts them
     CASES.append((f"close-start-{s}", dict(seed=2000 + s, close=True), {}, []))
 # close starts (found by scanning seeds) where a wolf facing away from the target is commanded
@@ -142,10 +135,8 @@ for s in range(CLOSE_STARTS):  # wolves 1.4–2.4 m from the target, as the refe
 for seed in (2038, 2073, 2134, 2439, 2753):
     CASES.append((f"close-start-tiny-{seed}", dict(seed=seed, close=True), {}, ["wolf tiny first command"]))
 # θ_d exactly on a partner interval's bisector (an edge tie; the Rust world's rounding picks either edge)
-CASES.append(("edge-tie-0", dict(seed=1012, box=((6.0, -3.0), (9.0, 3.0)), target_box=((9.72, -3.0), (9.9, 3.0))), {},
-              ["wolf edge tie"]))
-CASES.append(("edge-tie-1", dict(seed=1000, n_wolves=3), {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0},
-              ["wolf edge tie"]))
+CASES.append(("edge-tie-0", dict(seed=1012, box=((6.0, -3.0), (9.0, 3.0)), target_box=((9.72, -3.0), (9.9, 3.0))), {}, ["wolf edge tie"]))
+CASES.append(("edge-tie-1", dict(seed=1000, n_wolves=3), {"agents.wolf.v_max": 0.8, "agents.target.sense_radius": 6.0}, ["wolf edge tie"]))
 
 CASES = [(n, a, {**o, "world.max_steps": SETTLES[n]} if n in SETTLES else o, h) for n, a, o, h in CASES]
 
@@ -194,8 +185,7 @@ def _first_mismatch(name, t, got, want, kind):
     if bad.size == 0:
         return None
     a, f = bad[0]
-    return (f"{name}: step {t}: {kind} {a} {FIELDS[f]}: rust {got[a, f]!r} vs reference {want[a, f]!r} "
-            f"(|Δ| = {diff[a, f]:.3g}); rust row {got[a].tolist()}, reference row {want[a].tolist()}")
+    return f"{name}: step {t}: {kind} {a} {FIELDS[f]}: rust {got[a, f]!r} vs reference {want[a, f]!r} (|Δ| = {diff[a, f]:.3g}); rust row {got[a].tolist()}, reference row {want[a].tolist()}"
 
 
 def compare(name, params, layout, seed=0):
@@ -242,8 +232,7 @@ def compare(name, params, layout, seed=0):
             if not np.array_equal(got_i, want_i):
                 r, c = np.argwhere(got_i != want_i)[0]
                 who = lambda k: f"wolf {k}" if k < n else f"target {k - n}"  # noqa: E731
-                problems.append(f"{name}: step {t}: interaction [{who(r)}][{who(c)}] rust {got_i[r, c]} vs "
-                                f"reference {want_i[r, c]}; rust\n{got_i}\nreference\n{want_i}")
+                problems.append(f"{name}: step {t}: interaction [{who(r)}][{who(c)}] rust {got_i[r, c]} vs reference {want_i[r, c]}; rust\n{got_i}\nreference\n{want_i}")
         if problems:
             return t, problems, ref
     if ref.outcome != res["outcome"]:
@@ -300,24 +289,31 @@ def test_two_targets_are_captured_at_different_steps():
 # SPEC leaves these readings open; the Rust core took the other one (see reference_model's
 # docstring). Each flipped reading is pinned here: it must keep failing on a case that exercises it.
 AMBIGUOUS = [
-    ("partners_trigger_emergency", True, "eight-wolves",
-     "SPEC §4 ambiguity: 'a merged interval keeps the distance of its closest member' and only "
-     "static circles are excepted from the emergency, so a partner wolf closer than D_DANGER "
-     "(centre distance) literally triggers it; the Rust core lets only walls/obstacles trigger "
-     "it and leaves close partners to the close-partner rule"),
-    ("follow_same_target_only", False, "two-targets-3",
-     "SPEC §3 ambiguity (M > 1): 'j is the nearest wolf that senses the target' — literally any "
-     "wolf within r_w of wolf i's target; the Rust core follows only wolves that also hunt it"),
-    ("partner_items_used", False, "open-0",
-     "SPEC §1.4 ambiguity: it lists 'followed partner, repulsion neighbours p, q' as used "
-     "information; the Rust core also marks partner wolves that are §4 avoidance items"),
+    (
+        "partners_trigger_emergency",
+        True,
+        "eight-wolves",
+        "SPEC §4 ambiguity: 'a merged interval keeps the distance of its closest member' and only "
+        "static circles are excepted from the emergency, so a partner wolf closer than D_DANGER "
+        "(centre distance) literally triggers it; the Rust core lets only walls/obstacles trigger "
+        "it and leaves close partners to the close-partner rule",
+    ),
+    (
+        "follow_same_target_only",
+        False,
+        "two-targets-3",
+        "SPEC §3 ambiguity (M > 1): 'j is the nearest wolf that senses the target' — literally any wolf within r_w of wolf i's target; the Rust core follows only wolves that also hunt it",
+    ),
+    (
+        "partner_items_used",
+        False,
+        "open-0",
+        "SPEC §1.4 ambiguity: it lists 'followed partner, repulsion neighbours p, q' as used information; the Rust core also marks partner wolves that are §4 avoidance items",
+    ),
 ]
 
 
-@pytest.mark.parametrize("key,value,case", [
-    pytest.param(key, value, case, id=key, marks=pytest.mark.xfail(strict=True, reason=reason))
-    for key, value, case, reason in AMBIGUOUS
-])
+@pytest.mark.parametrize("key,value,case", [pytest.param(key, value, case, id=key, marks=pytest.mark.xfail(strict=True, reason=reason)) for key, value, case, reason in AMBIGUOUS])
 def test_flipped_reading_diverges(monkeypatch, key, value, case):
     import reference_model
 

@@ -21,15 +21,23 @@ def _law(score: float) -> dict:
 
 
 def _write(folder: Path) -> None:
-    baselines = {"episodes": 200, "first_seed": 500000, "command": "python benchmarks/benchmark_baselines.py",
-                 "wolves": {"bvc": {"kind": "law", "tasks": {"hunt-v1": _law(0.97), "open-v1": _law(0.98)}}},
-                 "targets": {"escape": {"kind": "law", "tasks": {"hunt-v1": _law(0.03), "open-v1": _law(0.01)}}}}
+    baselines = {
+        "episodes": 200,
+        "first_seed": 500000,
+        "command": "python benchmarks/benchmark_baselines.py",
+        "wolves": {"bvc": {"kind": "law", "tasks": {"hunt-v1": _law(0.97), "open-v1": _law(0.98)}}},
+        "targets": {"escape": {"kind": "law", "tasks": {"hunt-v1": _law(0.03), "open-v1": _law(0.01)}}},
+    }
     scores = {"hunt-v1": [0.80, 0.85, 0.90, 0.95, 0.10], "open-v1": [0.90, 0.92, 0.94]}
     runs = [{"task": t, "learner": "mappo-wolves", "seed": s, "score": x} for t, xs in scores.items() for s, x in enumerate(xs)]
     summary = {t: {"mappo-wolves": {"iqm": float(np.mean(sorted(xs)[1:-1])) if len(xs) == 5 else 0.92, "ci95": [0.8, 0.95]}} for t, xs in scores.items()}
-    learned = {"budgets": {"wolves": 10_000_000, "targets": 2_000_000}, "command": "python training/task_baselines.py",
-               "learners": {"mappo-wolves": {"side": "wolves", "algo": "mappo"}, "mappo-escaper": {"side": "targets", "algo": "mappo"}},
-               "summary": summary, "runs": runs}
+    learned = {
+        "budgets": {"wolves": 10_000_000, "targets": 2_000_000},
+        "command": "python training/task_baselines.py",
+        "learners": {"mappo-wolves": {"side": "wolves", "algo": "mappo"}, "mappo-escaper": {"side": "targets", "algo": "mappo"}},
+        "summary": summary,
+        "runs": runs,
+    }
     (folder / "baselines.json").write_text(json.dumps(baselines))
     (folder / "learned.json").write_text(json.dumps(learned))
 

@@ -147,7 +147,7 @@ def dynamic_flags(library: Path) -> int:
     (shoff,) = struct.unpack_from("<Q", data, 0x28)
     shentsize, shnum = struct.unpack_from("<HH", data, 0x3A)
     for k in range(shnum):
-        sh_type, = struct.unpack_from("<I", data, shoff + k * shentsize + 4)
+        (sh_type,) = struct.unpack_from("<I", data, shoff + k * shentsize + 4)
         if sh_type == 6:  # SHT_DYNAMIC: (tag, value) pairs
             offset, size = struct.unpack_from("<QQ", data, shoff + k * shentsize + 0x18)
             for tag, value in struct.iter_unpack("<qQ", data[offset : offset + size]):
@@ -177,6 +177,5 @@ def test_the_release_extension_in_this_checkout_was_profile_guided():
     if os.environ.get("WOLFPACK_PGO") in PGO_OFF or os.environ.get("RUSTC_WORKSPACE_WRAPPER") == "":
         pytest.skip("PGO turned off in this environment")
     assert str(PROFILE) in dep_infos[-1].read_text(encoding="utf-8"), (
-        f"{dep_infos[-1]} does not list {PROFILE}: the last release build was not profile-guided "
-        "(built with WOLFPACK_PGO=0? then rebuild without it)"
+        f"{dep_infos[-1]} does not list {PROFILE}: the last release build was not profile-guided (built with WOLFPACK_PGO=0? then rebuild without it)"
     )

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import SHORT, layout_dict
 from wolfpack.cli import JSON_KEYS
 
@@ -168,9 +167,32 @@ def test_main_maps_exceptions_to_one_line_and_a_status(monkeypatch, capsys, erro
 def test_help_explains_every_option_the_scenario_and_the_outputs(cli):
     proc = cli("hunt", "--help")
     assert proc.returncode == 0
-    for word in ["--params", "--wolves", "--targets", "--episodes", "--seed", "--set", "--layout", "--out", "--plots", "--json", "--threads",
-                 "captured", "collision", "timeout", "summary.json", "trajectory.npz", "trajectory.png", "curves.png", "summary.png",
-                 "interaction.png", "episode.mp4", "--video", "examples:", "env_steps_per_second"]:
+    for word in [
+        "--params",
+        "--wolves",
+        "--targets",
+        "--episodes",
+        "--seed",
+        "--set",
+        "--layout",
+        "--out",
+        "--plots",
+        "--json",
+        "--threads",
+        "captured",
+        "collision",
+        "timeout",
+        "summary.json",
+        "trajectory.npz",
+        "trajectory.png",
+        "curves.png",
+        "summary.png",
+        "interaction.png",
+        "episode.mp4",
+        "--video",
+        "examples:",
+        "env_steps_per_second",
+    ]:
         assert word in proc.stdout, word
     top = cli("--help")
     assert top.returncode == 0 and "hunt" in top.stdout and "bench" in top.stdout and "replay" in top.stdout
@@ -368,8 +390,7 @@ def test_cornered_targets_are_counted_and_end_episodes_only_when_asked(cli, tmp_
     rate without it, on the same episodes."""
     plain = json.loads(cli("hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "0", "--json").stdout)
     out = tmp_path / "run"
-    proc = cli("hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "0", "--json", "--plots", "0",
-               "--set", "capture.cornered=true", "--out", out)
+    proc = cli("hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "0", "--json", "--plots", "0", "--set", "capture.cornered=true", "--out", out)
     assert proc.returncode == 0, proc.stderr
     asked = json.loads(proc.stdout)
     assert plain["cornered_rate"] == 0.0 and plain["cornered_episodes"] > 0
@@ -419,6 +440,7 @@ def test_force_replaces_an_earlier_run_and_keeps_other_files(cli, tmp_path):
 def test_out_keeps_a_bounded_number_of_trajectories(cli, tmp_path):
     """--out writes trajectory.npz for the first 20 episodes (or --plots when larger) unless
     --trajectories says otherwise; the summary covers every episode either way."""
+
     def npz(out):
         return sorted(p.parent.name for p in out.glob("episode_*/trajectory.npz"))
 
@@ -437,7 +459,8 @@ def test_out_keeps_a_bounded_number_of_trajectories(cli, tmp_path):
 def test_a_run_of_more_than_a_gigabyte_says_so_first(capsys):
     import argparse
 
-    from wolfpack import _core, cli as wcli
+    from wolfpack import _core
+    from wolfpack import cli as wcli
 
     def kept(episodes, plots, trajectories):
         return wcli.kept_trajectories(argparse.Namespace(episodes=episodes, plots=plots, trajectories=trajectories))

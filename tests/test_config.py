@@ -7,12 +7,11 @@ import json
 import math
 
 import pytest
+import wolfpack
 import yaml
+from conftest import REPO_ROOT, layout_dict
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import wolfpack
-from conftest import REPO_ROOT, layout_dict
 from param_strategies import LEAF_KEYS, default_of, invalid_value, valid_value
 from wolfpack import _core
 from wolfpack.config import DEFAULT_PARAMS_PATH, apply_overrides, load_layout, load_params, parse_override
@@ -224,6 +223,7 @@ def test_good_layout_implies_its_agent_counts():
 
 
 # --- property tests -----------------------------------------------------------------------
+
 
 def fix_cross_field_rules(o: dict) -> dict:
     """Adjusts drawn overrides so that they also satisfy the rules that tie keys together

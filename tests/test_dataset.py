@@ -12,7 +12,6 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 import pytest
-
 import wolfpack
 from wolfpack import dataset
 from wolfpack.task import gym_id, task_params
@@ -97,12 +96,15 @@ def test_bad_requests_are_refused_before_anything_is_written(tmp_path):
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--task", "hunt-v9", "--policy", "bvc", "--episodes", "1", "--out", "x"], "invalid choice: 'hunt-v9'"),
-    (["--task", "hunt-v1", "--policy", "nope", "--episodes", "1", "--out", "x"], "not a scripted law"),
-    (["--task", "hunt-v1", "--policy", "bvc", "--episodes", "0", "--out", "x"], "--episodes"),
-    (["--task", "hunt-v1", "--policy", "bvc", "--out", "x"], "the following arguments are required: --episodes"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--task", "hunt-v9", "--policy", "bvc", "--episodes", "1", "--out", "x"], "invalid choice: 'hunt-v9'"),
+        (["--task", "hunt-v1", "--policy", "nope", "--episodes", "1", "--out", "x"], "not a scripted law"),
+        (["--task", "hunt-v1", "--policy", "bvc", "--episodes", "0", "--out", "x"], "--episodes"),
+        (["--task", "hunt-v1", "--policy", "bvc", "--out", "x"], "the following arguments are required: --episodes"),
+    ],
+)
 def test_the_command_refuses_bad_input_in_one_line(argv, message, tmp_path):
     run = subprocess.run([sys.executable, "-m", "wolfpack", "dataset", *argv], capture_output=True, text=True, cwd=tmp_path)
     assert run.returncode == 2 and message in run.stderr and len(run.stderr.strip().splitlines()) == 1
@@ -110,8 +112,9 @@ def test_the_command_refuses_bad_input_in_one_line(argv, message, tmp_path):
 
 
 def test_the_command_writes_and_reports(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "wolfpack", "dataset", "--task", "two-targets-v1", "--policy", "escape", "--episodes", "3", "--out", str(tmp_path / "d"), "--json"],
-                         capture_output=True, text=True)
+    run = subprocess.run(
+        [sys.executable, "-m", "wolfpack", "dataset", "--task", "two-targets-v1", "--policy", "escape", "--episodes", "3", "--out", str(tmp_path / "d"), "--json"], capture_output=True, text=True
+    )
     assert run.returncode == 0, run.stderr
     meta = json.loads(run.stdout)
     assert meta["format"] == "npz" and meta["episodes"] == 3 and meta["command"].startswith("wolfpack dataset --task two-targets-v1")

@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-
 from conftest import SHORT, layout_dict
 from wolfpack import load_params, run_episodes
 

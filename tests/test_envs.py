@@ -8,11 +8,10 @@ import pickle
 import gymnasium
 import numpy as np
 import pytest
+import wolfpack
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pettingzoo.test import parallel_api_test, parallel_seed_test
-
-import wolfpack
 from wolfpack.parallel_env import OBS_BOUND
 
 # A 5-wolf, 1-target layout with no obstacles: wolf 0 at the origin facing +y, the target 2 m
@@ -324,8 +323,7 @@ def test_invalid_learners_and_arguments():
         wolfpack.BatchEnv(num_envs=0)
     # Unknown keywords are TypeErrors naming them (Python's convention, which TorchRL's GymEnv
     # relies on to retry without a keyword); bad values of known keys are ValueErrors.
-    for make in (wolfpack.parallel_env, lambda **k: gymnasium.make("wolfpack/Escape-v0", **k),
-                 lambda **k: wolfpack.make_vec_env(num_envs=1, **k), lambda **k: wolfpack.BatchEnv(**k)):
+    for make in (wolfpack.parallel_env, lambda **k: gymnasium.make("wolfpack/Escape-v0", **k), lambda **k: wolfpack.make_vec_env(num_envs=1, **k), lambda **k: wolfpack.BatchEnv(**k)):
         with pytest.raises(TypeError, match="'frameskip'"):
             make(frameskip=4)
         with pytest.raises(TypeError, match=r"world\.wolvs' \(did you mean 'world\.wolves'\?\)"):

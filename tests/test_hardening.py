@@ -16,7 +16,6 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 import pytest
-
 import wolfpack
 from conftest import SHORT, layout_dict, synthetic_result
 from test_cli import assert_clean_failure
@@ -29,8 +28,22 @@ from wolfpack.config import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, check_tree, lo
 
 @pytest.mark.parametrize(
     ("text", "value"),
-    [("1e-3", 0.001), ("1E5", 1e5), ("-2.5e+2", -250.0), ("1e3", 1000.0), ("1.0e3", 1000.0), (".5e1", 5.0),
-     ("8", 8), ("-3", -3), ("1_000", 1000), ("0.1", 0.1), (".inf", float("inf")), ("e3", "e3"), ("1e", "1e"), ("1.2.3", "1.2.3")],
+    [
+        ("1e-3", 0.001),
+        ("1E5", 1e5),
+        ("-2.5e+2", -250.0),
+        ("1e3", 1000.0),
+        ("1.0e3", 1000.0),
+        (".5e1", 5.0),
+        ("8", 8),
+        ("-3", -3),
+        ("1_000", 1000),
+        ("0.1", 0.1),
+        (".inf", float("inf")),
+        ("e3", "e3"),
+        ("1e", "1e"),
+        ("1.2.3", "1.2.3"),
+    ],
 )
 def test_scientific_notation_is_a_float(text, value):
     key, parsed = parse_override(f"world.ts={text}")
@@ -318,8 +331,7 @@ def test_numpy_integers_and_bools_are_accepted_and_the_largest_seed_works():
 
 @pytest.mark.parametrize(
     "args",
-    [["hunt", "--out", ""], ["hunt", "--out", "  "], ["replay", ""], ["replay", "x", "--out", ""], ["hunt", "--threads", str(MAX_THREADS + 1)],
-     ["bench", "--threads", "100000"]],
+    [["hunt", "--out", ""], ["hunt", "--out", "  "], ["replay", ""], ["replay", "x", "--out", ""], ["hunt", "--threads", str(MAX_THREADS + 1)], ["bench", "--threads", "100000"]],
 )
 def test_empty_out_and_too_many_threads_are_usage_errors(tmp_path, args):
     proc = subprocess.run([sys.executable, "-m", "wolfpack", *args], capture_output=True, text=True, timeout=60, cwd=tmp_path)

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import synthetic_result
 from wolfpack import _core, logs, plots
 from wolfpack.cli import RunWriter

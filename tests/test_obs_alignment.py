@@ -28,10 +28,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
-from hypothesis import given, settings, strategies as st
-
 import wolfpack
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 ATOL = 1e-5
 
@@ -40,13 +39,13 @@ ATOL = 1e-5
 # The oracle
 # ----------------------------------------------------------------------------------------------
 
+
 def common(a, v_max, omega_max, border, t, max_steps):
     """Entries 0–8: own speed, turn rate, heading, wall distances, clock."""
     x, y, th, v, om = a
     x0, y0, x1, y1 = border
     w, h = x1 - x0, y1 - y0
-    return [v / v_max, om / omega_max, math.sin(th), math.cos(th),
-            (x - x0) / w, (x1 - x) / w, (y - y0) / h, (y1 - y) / h, t / max_steps]
+    return [v / v_max, om / omega_max, math.sin(th), math.cos(th), (x - x0) / w, (x1 - x) / w, (y - y0) / h, (y1 - y) / h, t / max_steps]
 
 
 def relative(me, other, scale, flag):
@@ -79,13 +78,13 @@ def lidar(me, obstacles, border, rays, reach):
     """Ray k at θ + 2πk/K: first hit on a wall, circle or polygon edge, / range, in [0, 1]."""
     o = np.array(me[:2])
     ang = me[2] + 2 * np.pi * np.arange(rays) / rays
-    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)                         # [K, 2]
+    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # [K, 2]
     x0, y0, x1, y1 = border
     with np.errstate(divide="ignore", invalid="ignore"):
         tx = np.where(u[:, 0] > 0, (x1 - o[0]) / u[:, 0], np.where(u[:, 0] < 0, (x0 - o[0]) / u[:, 0], np.inf))
         ty = np.where(u[:, 1] > 0, (y1 - o[1]) / u[:, 1], np.where(u[:, 1] < 0, (y0 - o[1]) / u[:, 1], np.inf))
     best = np.minimum(np.minimum(tx, ty), reach)
-    hits = np.zeros(rays, dtype=int)                                         # 0 wall/none, 1 circle, 2 polygon
+    hits = np.zeros(rays, dtype=int)  # 0 wall/none, 1 circle, 2 polygon
     for ob in obstacles:
         if ob["kind"] == "circle":
             rel = o - np.asarray(ob["center"])
@@ -99,9 +98,9 @@ def lidar(me, obstacles, border, rays, reach):
             if inside_polygon(v, o):
                 t = np.zeros(rays)
             else:
-                a, e = v, np.roll(v, -1, axis=0) - v                         # edges a + s·e, s ∈ [0, 1]
-                ao = a - o                                                   # [E, 2]
-                den = u[:, None, 0] * e[None, :, 1] - u[:, None, 1] * e[None, :, 0]   # u × e, [K, E]
+                a, e = v, np.roll(v, -1, axis=0) - v  # edges a + s·e, s ∈ [0, 1]
+                ao = a - o  # [E, 2]
+                den = u[:, None, 0] * e[None, :, 1] - u[:, None, 1] * e[None, :, 0]  # u × e, [K, E]
                 with np.errstate(divide="ignore", invalid="ignore"):
                     tt = (ao[None, :, 0] * e[None, :, 1] - ao[None, :, 1] * e[None, :, 0]) / den
                     ss = (ao[None, :, 0] * u[:, None, 1] - ao[None, :, 1] * u[:, None, 0]) / den
@@ -161,7 +160,6 @@ def expected_obs(p, ws, t_seen, row_matrix, stats, sighting=()):
     S = max(border[2] - border[0], border[3] - border[1])
     K, reach = env["lidar"]["rays"], env["lidar"]["range"]
     wolves, targets = ws["wolves"], ws["targets"]
-    n = len(wolves)
     out = {}
     for i, me in enumerate(wolves):
         o = common(me, wp["v_max"], wp["omega_max"], border, t, T)
@@ -228,9 +226,24 @@ def expected_rewards(p, before, after, infos_before, infos_after, agents):
 # Driving the env and comparing
 # ----------------------------------------------------------------------------------------------
 
+
 def new_stats():
-    keys = ("steps", "wolf_sensed", "partner_senses", "target_masked", "cap_below_1", "wall", "circle", "polygon", "inside",
-            "captures", "wolf_collisions", "target_collisions", "row_ones", "sighting_away")
+    keys = (
+        "steps",
+        "wolf_sensed",
+        "partner_senses",
+        "target_masked",
+        "cap_below_1",
+        "wall",
+        "circle",
+        "polygon",
+        "inside",
+        "captures",
+        "wolf_collisions",
+        "target_collisions",
+        "row_ones",
+        "sighting_away",
+    )
     return dict.fromkeys(keys, 0)
 
 
@@ -306,6 +319,7 @@ def compare(p, ws, obs, t_seen, rows, stats, ctx, sighting=()):
 # Tests
 # ----------------------------------------------------------------------------------------------
 
+
 def test_default_scenario_fixed_seeds():
     """5 wolves, 1 target, 12 obstacles (circles, polygons, moving): observations and rewards
     on 6 seeds, 40 steps each, half expert / half random actions; the branches are exercised."""
@@ -328,8 +342,7 @@ def test_default_scenario_random_seeds(seed, expert_share):
 def test_three_wolves_two_targets_interaction_row_and_lidar_7():
     """3 wolves, 2 targets, interaction row, 7 rays of 4.5 m, a 20 × 14 arena (W ≠ H, S = 20)
     and a short fatigue delay, so that the target's cap entry falls below 1 within the run."""
-    overrides = {"world.wolves": 3, "world.targets": 2, "env.interaction_row": True, "env.lidar.rays": 7,
-                 "env.lidar.range": 4.5, "world.border": [-10.0, -7.0, 10.0, 7.0], "escape.fatigue_delay": 4.0}
+    overrides = {"world.wolves": 3, "world.targets": 2, "env.interaction_row": True, "env.lidar.rays": 7, "env.lidar.range": 4.5, "world.border": [-10.0, -7.0, 10.0, 7.0], "escape.fatigue_delay": 4.0}
     env = wolfpack.parallel_env(learners="all", **overrides)
     p = env.unwrapped.params
     assert p["env"]["lidar"]["rays"] == 7 and list(p["world"]["border"]) == [-10.0, -7.0, 10.0, 7.0]
@@ -364,7 +377,7 @@ def ring_layout(second_target=True):
     return lay
 
 
-STAY = np.array([-1.0, 0.0], np.float32)   # v = 0, ω = 0
+STAY = np.array([-1.0, 0.0], np.float32)  # v = 0, ω = 0
 
 
 def test_rewards_capture_with_two_targets():
@@ -389,14 +402,13 @@ def test_rewards_terminal_capture():
 
 
 FAR_WOLVES = [[-6.0, 6.0, 0.0], [-3.0, 6.0, 0.0], [0.0, 6.0, 0.0], [3.0, 6.0, 0.0], [6.0, 6.0, 0.0]]
-FULL = np.array([1.0, 0.0], np.float32)   # v = v_max, ω = 0
+FULL = np.array([1.0, 0.0], np.float32)  # v = v_max, ω = 0
 NO_FILTER = {"world.feasibility_filter": False}
 
 
 def test_wolf_collision_is_terminal_with_zero_potential():
     """Without the feasibility filter wolf 4 drives into a circle: −collision_penalty, Φ(s') = 0."""
-    lay = {"wolves": FAR_WOLVES[:4] + [[3.0, -6.0, 0.0]], "targets": [[-6.0, 2.0, 0.0]],
-           "obstacles": [{"kind": "circle", "center": [6.0, -6.0], "radius": 0.8, "moving": False}]}
+    lay = {"wolves": FAR_WOLVES[:4] + [[3.0, -6.0, 0.0]], "targets": [[-6.0, 2.0, 0.0]], "obstacles": [{"kind": "circle", "center": [6.0, -6.0], "radius": 0.8, "moving": False}]}
     env = wolfpack.parallel_env(learners="all", **NO_FILTER)
     stats = run(env, 0, 40, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "wolf_4" else STAY)
     assert stats["wolf_collisions"] == 1 and env.unwrapped.world_state()["outcome"] == "collision", stats
@@ -407,9 +419,11 @@ def test_target_drives_through_a_circle_and_a_non_convex_polygon():
     through a non-convex polygon (which spins in place: static polygons rotate): the collision
     penalty every step in contact, and lidar rays starting inside an obstacle read 0."""
     notch = [[4.0, -7.0], [6.0, -7.0], [6.0, -5.0], [4.0, -5.0], [5.0, -6.0]]
-    lay = {"wolves": FAR_WOLVES, "targets": [[-3.0, -5.9, 0.0]],
-           "obstacles": [{"kind": "circle", "center": [0.0, -6.0], "radius": 0.8, "moving": False},
-                         {"kind": "polygon", "center": [5.2, -6.0], "vertices": notch, "moving": False}]}
+    lay = {
+        "wolves": FAR_WOLVES,
+        "targets": [[-3.0, -5.9, 0.0]],
+        "obstacles": [{"kind": "circle", "center": [0.0, -6.0], "radius": 0.8, "moving": False}, {"kind": "polygon", "center": [5.2, -6.0], "vertices": notch, "moving": False}],
+    }
     env = wolfpack.parallel_env(learners="all", **NO_FILTER)
     stats = run(env, 0, 60, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "target_0" else STAY)
-    assert stats["steps"] == 60 and stats["target_collisions"] >= 15 and stats["inside"] >= 15 * 16, stats   # ~11 steps in the circle, ~7 in the polygon
+    assert stats["steps"] == 60 and stats["target_collisions"] >= 15 and stats["inside"] >= 15 * 16, stats  # ~11 steps in the circle, ~7 in the polygon

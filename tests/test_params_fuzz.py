@@ -15,19 +15,26 @@ import math
 
 import numpy as np
 import pytest
+import wolfpack
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-import wolfpack
 from param_strategies import LEAF_KEYS, invalid_value, valid_value
 from test_config import fix_cross_field_rules
 from wolfpack import _core
 
 #: Caps for simulated examples: (key, most).
 SIM_CAPS = {
-    "world.wolves": 8, "world.targets": 3, "world.max_steps": 25,
-    "obstacles.static_circles": 4, "obstacles.moving_circles": 4, "obstacles.static_polygons": 4, "obstacles.moving_polygons": 4,
-    "world.spawn_attempts": 300, "world.spawn_restarts": 4, "env.lidar.rays": 64, "bvc.disc_sides": 64,
+    "world.wolves": 8,
+    "world.targets": 3,
+    "world.max_steps": 25,
+    "obstacles.static_circles": 4,
+    "obstacles.moving_circles": 4,
+    "obstacles.static_polygons": 4,
+    "obstacles.moving_polygons": 4,
+    "world.spawn_attempts": 300,
+    "world.spawn_restarts": 4,
+    "env.lidar.rays": 64,
+    "bvc.disc_sides": 64,
     "formation.ring_points": 16,
 }
 CHOICES = {
@@ -138,12 +145,17 @@ def test_every_key_is_refused_by_name_or_simulates_finitely_inside_the_arena(ove
 coordinate = st.one_of(st.floats(-12, 12, allow_nan=False), st.sampled_from([math.nan, math.inf, -math.inf, 1e308]))
 pose = st.lists(coordinate, min_size=3, max_size=3)
 odd = st.one_of(st.text(max_size=3), st.none(), st.just({"x": 1}), st.lists(st.integers(), max_size=4), st.just([[[[[1]]]]]))
-circle = st.fixed_dictionaries({"kind": st.just("circle"), "center": st.lists(coordinate, min_size=2, max_size=2),
-                                "radius": st.one_of(st.floats(-1, 3, allow_nan=False), st.sampled_from([0.0, math.nan, 1e39])),
-                                "moving": st.booleans()})
-polygon = st.fixed_dictionaries({"kind": st.just("polygon"), "center": st.lists(coordinate, min_size=2, max_size=2),
-                                 "vertices": st.lists(st.lists(coordinate, min_size=2, max_size=2), max_size=8),
-                                 "moving": st.booleans()})
+circle = st.fixed_dictionaries(
+    {
+        "kind": st.just("circle"),
+        "center": st.lists(coordinate, min_size=2, max_size=2),
+        "radius": st.one_of(st.floats(-1, 3, allow_nan=False), st.sampled_from([0.0, math.nan, 1e39])),
+        "moving": st.booleans(),
+    }
+)
+polygon = st.fixed_dictionaries(
+    {"kind": st.just("polygon"), "center": st.lists(coordinate, min_size=2, max_size=2), "vertices": st.lists(st.lists(coordinate, min_size=2, max_size=2), max_size=8), "moving": st.booleans()}
+)
 
 
 @st.composite
@@ -205,9 +217,9 @@ def _num(x: float) -> str:
 def ranges_table() -> str:
     """The Markdown table of docs/world-and-laws.md "Parameter ranges", from the core's table."""
     rows = ["| key | allowed | unit / note |", "|---|---|---|"]
-    for l in _core.param_limits():
-        lo = "(" if l["open_lo"] else "["
-        rows.append(f"| `{l['key']}` | {lo}{_num(l['lo'])}, {_num(l['hi'])}] | {l['unit']} |")
+    for limit in _core.param_limits():
+        lo = "(" if limit["open_lo"] else "["
+        rows.append(f"| `{limit['key']}` | {lo}{_num(limit['lo'])}, {_num(limit['hi'])}] | {limit['unit']} |")
     return "\n".join(rows)
 
 

@@ -11,9 +11,8 @@ import matplotlib
 matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-
 import wolfpack  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 from wolfpack import logs, plots  # noqa: E402
 
 
@@ -63,8 +62,9 @@ def test_evaluation_capture_times_distinguish_twelve_rows(saved, tmp_path):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "training"))
     import evaluate
 
-    rows = [{"wolves": f"w{k}", "targets": "escape", "episodes": 10, "first_seed": 0, "capture_rate": 0.5, "capture_rate_ci95": [0.2, 0.8],
-             "capture_steps": list(range(10 + k, 15 + k))} for k in range(12)]
+    rows = [
+        {"wolves": f"w{k}", "targets": "escape", "episodes": 10, "first_seed": 0, "capture_rate": 0.5, "capture_rate_ci95": [0.2, 0.8], "capture_steps": list(range(10 + k, 15 + k))} for k in range(12)
+    ]
     evaluate.plot(rows, tmp_path)
     times = saved[-1]
     styles = [(line.get_color(), line.get_linestyle()) for line in times.axes[0].get_lines()]

@@ -9,14 +9,12 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import gymnasium
 import numpy as np
 import pytest
-from pettingzoo.test import render_test
-
 import wolfpack
+from pettingzoo.test import render_test
 from wolfpack import render
 from wolfpack.cli import main as cli_main
 
@@ -271,8 +269,7 @@ def test_replay_hides_each_targets_ring_from_its_own_capture_step(tmp_path):
     ring hidden, hollow) from step 17 on while the other is still hunted."""
     sets = {"world.targets": 2, "policies.targets": "still", "capture.count": 3}
     out = tmp_path / "run"
-    cli_main(["hunt", "--episodes", "1", "--seed", "3", "--plots", "0", "--out", str(out),
-              *[a for k, v in sets.items() for a in ("--set", f"{k}={v}")]])
+    cli_main(["hunt", "--episodes", "1", "--seed", "3", "--plots", "0", "--out", str(out), *[a for k, v in sets.items() for a in ("--set", f"{k}={v}")]])
     arrays = wolfpack.logs.load_trajectory(out / "episode_000" / "trajectory.npz")
     assert arrays["target_capture_step"].tolist() == [78, 17]
     env = wolfpack.parallel_env(learners="none", render_mode="rgb_array", **sets)

@@ -70,6 +70,4 @@ def test_a_fast_command_rebuilds_its_committed_results(command, out, tmp_path):
     for path in written:
         committed = ROOT / out / path.name
         assert committed.exists(), f"{out}/{path.name} is not committed"
-        assert json.loads(path.read_text()) == json.loads(committed.read_text()), (
-            f"{out}/{path.name} differs from what `{command}` gives now: rerun it and commit the result"
-        )
+        assert json.loads(path.read_text()) == json.loads(committed.read_text()), f"{out}/{path.name} differs from what `{command}` gives now: rerun it and commit the result"

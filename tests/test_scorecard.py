@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import wolfpack
 from wolfpack import scorecard
 from wolfpack.evaluation import HELD_OUT_SEED
@@ -42,11 +41,16 @@ def test_targets_are_scored_on_survival():
 
 
 def test_ranks_count_the_baselines_that_scored_higher_and_never_the_policy_itself():
-    fake = {"episodes": 6, "first_seed": 0, "wolves": {
-        "seed000": {"kind": "law", "tasks": {"open-v1": {"score": 2.0}}},  # above anything real
-        "bvc": {"kind": "law", "tasks": {"open-v1": {"score": -1.0}}},
-        "other": {"kind": "law", "tasks": {"open-v1": {"score": 1.5}}},
-    }, "targets": {}}
+    fake = {
+        "episodes": 6,
+        "first_seed": 0,
+        "wolves": {
+            "seed000": {"kind": "law", "tasks": {"open-v1": {"score": 2.0}}},  # above anything real
+            "bvc": {"kind": "law", "tasks": {"open-v1": {"score": -1.0}}},
+            "other": {"kind": "law", "tasks": {"open-v1": {"score": 1.5}}},
+        },
+        "targets": {},
+    }
     card = scorecard.scorecard("bvc", "wolves", tasks=["open-v1"], episodes=6, seed=0, baselines=fake)
     row = card["tasks"]["open-v1"]
     assert row["baselines"] == {"seed000": 2.0, "other": 1.5}
@@ -106,10 +110,12 @@ def test_the_committed_baselines_cover_every_task_and_reproduce():
 
 def test_learned_baselines_rank_by_the_iqm_of_their_seeds_on_the_same_episodes(tmp_path):
     laws = {"episodes": 6, "first_seed": 0, "wolves": {"seed000": {"kind": "law", "tasks": {"open-v1": {"score": 0.9}}}}, "targets": {}}
-    learned = {"episodes": 6, "first_seed": 0, "learners": {"ippo-wolves": {"side": "wolves", "algo": "ippo"},
-                                                           "mappo-escaper": {"side": "targets", "algo": "mappo"}},
-               "summary": {"open-v1": {"ippo-wolves": {"iqm": 2.0, "ci95": [1.5, 2.5], "n": 5},
-                                       "mappo-escaper": {"iqm": 0.7, "ci95": [0.6, 0.8], "n": 5}}}}
+    learned = {
+        "episodes": 6,
+        "first_seed": 0,
+        "learners": {"ippo-wolves": {"side": "wolves", "algo": "ippo"}, "mappo-escaper": {"side": "targets", "algo": "mappo"}},
+        "summary": {"open-v1": {"ippo-wolves": {"iqm": 2.0, "ci95": [1.5, 2.5], "n": 5}, "mappo-escaper": {"iqm": 0.7, "ci95": [0.6, 0.8], "n": 5}}},
+    }
     (tmp_path / "laws.json").write_text(json.dumps(laws))
     (tmp_path / "learned.json").write_text(json.dumps(learned))
     base = scorecard.load_baselines(tmp_path / "laws.json", tmp_path / "learned.json")
@@ -138,17 +144,20 @@ def test_benchmark_writes_a_scorecard_json_markdown_and_figure(tmp_path):
     assert (out / "scorecard.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--wolves", "escape"], "law of the targets, not of the wolves"),
-    (["--targets", "bvc"], "law of the wolves, not of the targets"),
-    (["--wolves", "seed000", "--targets", "escape"], "not allowed with argument"),
-    ([], "one of the arguments --wolves --targets is required"),
-    (["--wolves", "no/such/model"], "no/such/model"),
-    (["--wolves", "bvc", "--tasks", "hunt-v7"], "invalid choice: 'hunt-v7'"),
-    (["--wolves", "bvc", "--episodes", "0"], "--episodes"),
-    (["--wolves", "bvc", "--set", "capture.distanc=1.0"], "capture.distanc"),
-    (["--wolves", "bvc", "--set", "world.wolves=-3"], "world.wolves: must be an integer"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--wolves", "escape"], "law of the targets, not of the wolves"),
+        (["--targets", "bvc"], "law of the wolves, not of the targets"),
+        (["--wolves", "seed000", "--targets", "escape"], "not allowed with argument"),
+        ([], "one of the arguments --wolves --targets is required"),
+        (["--wolves", "no/such/model"], "no/such/model"),
+        (["--wolves", "bvc", "--tasks", "hunt-v7"], "invalid choice: 'hunt-v7'"),
+        (["--wolves", "bvc", "--episodes", "0"], "--episodes"),
+        (["--wolves", "bvc", "--set", "capture.distanc=1.0"], "capture.distanc"),
+        (["--wolves", "bvc", "--set", "world.wolves=-3"], "world.wolves: must be an integer"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(argv, message):
     run = _cli(*argv)
     assert run.returncode == 2, run.stderr
@@ -164,8 +173,7 @@ def test_an_occupied_out_folder_is_refused_and_kept(tmp_path):
 
 def test_overrides_play_every_task_modified_and_unranked():
     # The baselines' own episodes (200 from the held-out seed), so only the overrides stop the ranking.
-    card = scorecard.scorecard("bvc", "wolves", tasks=["hunt-v1", "open-v1"], episodes=200, seed=HELD_OUT_SEED,
-                               overrides={"capture.distance": 1.0})
+    card = scorecard.scorecard("bvc", "wolves", tasks=["hunt-v1", "open-v1"], episodes=200, seed=HELD_OUT_SEED, overrides={"capture.distance": 1.0})
     for task in ("hunt-v1", "open-v1"):
         results = wolfpack.run_episodes(task_params(task, {"policies.wolves": "bvc", "capture.distance": 1.0}), 200, HELD_OUT_SEED)
         assert card["tasks"][task]["score"] == sum(r["outcome"] == "captured" for r in results) / 200

@@ -20,21 +20,42 @@ sys.path.insert(0, str(TRAINING))
 import common  # noqa: E402
 import evaluate  # noqa: E402
 import selfplay  # noqa: E402
-
 from wolfpack import cli  # noqa: E402
 
 MODELS = Path(__file__).resolve().parents[1] / "results" / "models"
 #: Two or three updates of the trainer per generation (4 worlds x 16 steps x 5 wolves = 320
 #: agent-steps per update of the wolves, 4 x 16 x 1 = 64 of the targets).
-TINY = ["--timesteps", "640", "--hp", "n_steps=16", "--hp", "minibatch_size=64", "--hp", "epochs=1", "--hp", "hidden=[16, 16]", "--num-envs-wolves", "4",
-        "--num-envs-targets", "4", "--threads", "1", "--torch-threads", "1", "--eval-episodes", "3", "--no-progress", "--set", "world.max_steps=60"]
+TINY = [
+    "--timesteps",
+    "640",
+    "--hp",
+    "n_steps=16",
+    "--hp",
+    "minibatch_size=64",
+    "--hp",
+    "epochs=1",
+    "--hp",
+    "hidden=[16, 16]",
+    "--num-envs-wolves",
+    "4",
+    "--num-envs-targets",
+    "4",
+    "--threads",
+    "1",
+    "--torch-threads",
+    "1",
+    "--eval-episodes",
+    "3",
+    "--no-progress",
+    "--set",
+    "world.max_steps=60",
+]
 
 
 @pytest.fixture(scope="module")
 def league(tmp_path_factory):
     out = tmp_path_factory.mktemp("league")
-    argv = ["--out", str(out), "--generations", "2", "--fixed-wolves", "seed000,bvc", "--fixed-targets", "escape", "--member", str(MODELS / "escape_ppo"),
-            "--pool-sampling", "uniform", *TINY]
+    argv = ["--out", str(out), "--generations", "2", "--fixed-wolves", "seed000,bvc", "--fixed-targets", "escape", "--member", str(MODELS / "escape_ppo"), "--pool-sampling", "uniform", *TINY]
     assert selfplay.main(argv) == 0
     return out
 
@@ -129,8 +150,7 @@ def test_matrix_scripted_cells_equal_wolfpack_hunt_exactly(capsys):
 
 def test_matrix_with_models_and_a_league(league, tmp_path):
     out = tmp_path / "mx"
-    assert evaluate.main(["--matrix", "--episodes", "6", "--jobs", "1", "--out", str(out), "--set", "world.max_steps=60",
-                          str(MODELS / "wolves_ft"), str(MODELS / "escape_ppo"), str(league)]) == 0
+    assert evaluate.main(["--matrix", "--episodes", "6", "--jobs", "1", "--out", str(out), "--set", "world.max_steps=60", str(MODELS / "wolves_ft"), str(MODELS / "escape_ppo"), str(league)]) == 0
     doc = json.loads((out / "matrix.json").read_text())
     # The league folder adds the members it trained (not escape_ppo, which it borrowed).
     trained = [f"mappo:{m['name']}" for m in json.loads((league / "league.json").read_text())["members"] if m["kind"] == "model" and not m.get("fixed")]

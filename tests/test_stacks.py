@@ -7,9 +7,8 @@ from __future__ import annotations
 import gymnasium
 import numpy as np
 import pytest
-from pettingzoo.test import api_test, max_cycles_test, state_test
-
 import wolfpack
+from pettingzoo.test import api_test, max_cycles_test, state_test
 
 INFO_TYPES = {"outcome": int, "capture_step": int, "cornered_step": int, "energy": float, "collisions": int, "distance": float}
 
@@ -93,9 +92,10 @@ def test_state_layout_and_bad_use():
     np.testing.assert_array_equal(venv.state(), batch.state())
     # A layout with fewer obstacles than the params leaves empty slots.
     from conftest import layout_dict
+
     env.reset(seed=1, options={"layout": layout_dict()})
     s = env.state()
-    present = s[6 * 5 + 7: 6 * 5 + 7 + 5 * 12: 5]
+    present = s[6 * 5 + 7 : 6 * 5 + 7 + 5 * 12 : 5]
     assert present.tolist() == [1.0, 1.0] + [0.0] * 10
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import wolfpack
 from wolfpack.vec_env import RUNNING_INFO
 

@@ -12,11 +12,7 @@ STUB = Path(wolfpack.__file__).with_name("_core.pyi")
 
 def _stub_functions() -> dict[str, list[str]]:
     tree = ast.parse(STUB.read_text())
-    return {
-        node.name: [a.arg for a in node.args.args]
-        for node in tree.body
-        if isinstance(node, ast.FunctionDef)
-    }
+    return {node.name: [a.arg for a in node.args.args] for node in tree.body if isinstance(node, ast.FunctionDef)}
 
 
 def _stub_classes() -> dict[str, dict[str, list[str]]]:

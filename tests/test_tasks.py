@@ -13,9 +13,8 @@ from collections import Counter
 import gymnasium
 import numpy as np
 import pytest
-import yaml
-
 import wolfpack
+import yaml
 from wolfpack import _core
 from wolfpack.task import TASK_ORDER, TASKS_DIR, gym_id, outcome_changes, single_target_tasks, task_changes, task_params
 
@@ -198,10 +197,13 @@ def test_hunt_takes_a_task_and_says_so():
     assert modified.stdout.startswith("task open-v1 (modified): 2 episodes, seeds 0..1: 4 seed000")
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--task", "nope"], "invalid choice: 'nope'"),
-    (["--task", "open-v1", "--params", "params.yaml"], "not allowed with argument"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--task", "nope"], "invalid choice: 'nope'"),
+        (["--task", "open-v1", "--params", "params.yaml"], "not allowed with argument"),
+    ],
+)
 def test_hunt_refuses_a_bad_task_in_one_line(argv, message):
     run = subprocess.run([sys.executable, "-m", "wolfpack", "hunt", *argv], capture_output=True, text=True)
     assert run.returncode == 2

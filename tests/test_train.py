@@ -62,8 +62,19 @@ def test_both_sides_mappo_run_writes_models_logs_checkpoints_and_evaluations(bot
     assert summary["agent_steps"] == 6 * 768 and summary["updates"] == 6
     table = rows(out / "progress.csv")
     assert len(table) == 6
-    for column in ("wall_s", "agent_steps", "agent_steps_per_s", "captured_rate", "collision_rate", "wolves_policy_loss", "targets_value_loss",
-                   "wolves_entropy", "targets_approx_kl", "eval_wolves_capture_rate", "eval_targets_capture_rate"):
+    for column in (
+        "wall_s",
+        "agent_steps",
+        "agent_steps_per_s",
+        "captured_rate",
+        "collision_rate",
+        "wolves_policy_loss",
+        "targets_value_loss",
+        "wolves_entropy",
+        "targets_approx_kl",
+        "eval_wolves_capture_rate",
+        "eval_targets_capture_rate",
+    ):
         assert column in table[0], column
     assert [int(r["agent_steps"]) for r in table] == [768 * k for k in range(1, 7)]
     assert all(float(r["agent_steps_per_s"]) > 0 for r in table)
@@ -254,8 +265,7 @@ def test_imitation_warm_start_clones_the_law_then_trains_with_ppo(tmp_path):
     import yaml
 
     out = tmp_path / "im"
-    summary = train("wolves", "ippo", out=out, timesteps=2_000, imitate_min=0.05, overrides=SHORT, hp=TINY, threads=1, torch_threads=1,
-                    eval_episodes=4, device="cpu", progress=False)
+    summary = train("wolves", "ippo", out=out, timesteps=2_000, imitate_min=0.05, overrides=SHORT, hp=TINY, threads=1, torch_threads=1, eval_episodes=4, device="cpu", progress=False)
     rounds = json.loads((out / "imitation.json").read_text())
     assert rounds[0]["beta"] == 1.0 and rounds[0]["samples"]["wolves"] == 8 * 16 * 5  # round 0: the law drives, every sample kept
     assert all(r["loss"]["wolves"] >= 0 for r in rounds)
@@ -314,9 +324,35 @@ def test_ctrl_c_stops_promptly_and_keeps_the_models(tmp_path):
     import time
 
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "wolfpack.cli", "train", "--side", "wolves", "--time-limit", "30", "--threads", "1", "--torch-threads", "1",
-                             "--hp", "num_envs=8", "--hp", "n_steps=16", "--hp", "minibatch_size=64", "--eval-episodes", "2", "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "wolfpack.cli",
+            "train",
+            "--side",
+            "wolves",
+            "--time-limit",
+            "30",
+            "--threads",
+            "1",
+            "--torch-threads",
+            "1",
+            "--hp",
+            "num_envs=8",
+            "--hp",
+            "n_steps=16",
+            "--hp",
+            "minibatch_size=64",
+            "--eval-episodes",
+            "2",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not ((out / "progress.csv").is_file() and len(rows(out / "progress.csv")) >= 2):
         time.sleep(0.2)
@@ -377,12 +413,7 @@ def test_every_pool_member_is_checked_before_anything_is_written(both_run, cli, 
 def test_a_training_run_asks_torch_openmp_to_wait_passively_unless_the_user_chose():
     # In a fresh interpreter (torch not yet imported): the run sets the policy before torch
     # loads, and leaves a user's own choice alone.
-    code = (
-        "import os, sys\n"
-        "from wolfpack.learn.cli import prefer_passive_omp\n"
-        "prefer_passive_omp()\n"
-        "print(os.environ.get('OMP_WAIT_POLICY'))\n"
-    )
+    code = "import os, sys\nfrom wolfpack.learn.cli import prefer_passive_omp\nprefer_passive_omp()\nprint(os.environ.get('OMP_WAIT_POLICY'))\n"
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
     fresh = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert fresh.stdout.strip() == "PASSIVE"

@@ -20,7 +20,6 @@ import common  # noqa: E402
 import evaluate  # noqa: E402
 import imitate  # noqa: E402
 import train  # noqa: E402
-
 from wolfpack import cli  # noqa: E402
 
 TINY_PPO = ["--hp", "n_steps=16", "--hp", "batch_size=64", "--hp", "n_epochs=1", "--num-envs", "4", "--eval-episodes", "4", "--no-progress"]
@@ -36,8 +35,26 @@ def trained_targets(tmp_path_factory):
 @pytest.fixture(scope="module")
 def imitated_wolves(tmp_path_factory):
     out = tmp_path_factory.mktemp("wolves_bc")
-    args = ["--side", "wolves", "--out", str(out), "--rounds", "2", "--steps-per-round", "20", "--num-envs", "2", "--epochs", "1", "--eval-episodes", "2",
-            "--set", "env.action_mode=velocity", "--set", "env.lidar.rays=12"]
+    args = [
+        "--side",
+        "wolves",
+        "--out",
+        str(out),
+        "--rounds",
+        "2",
+        "--steps-per-round",
+        "20",
+        "--num-envs",
+        "2",
+        "--epochs",
+        "1",
+        "--eval-episodes",
+        "2",
+        "--set",
+        "env.action_mode=velocity",
+        "--set",
+        "env.lidar.rays=12",
+    ]
     assert imitate.main(args) == 0
     return out
 

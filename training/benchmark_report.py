@@ -28,7 +28,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from wolfpack.scorecard import SKILL
 from wolfpack.task import TASK_ORDER
 
@@ -109,8 +108,7 @@ def tables_markdown(table: dict, heading: str = "##") -> str:
         if not names:
             continue
         opponent = "the task's `escape` target" if side == "wolves" else "the task's `seed000` wolves"
-        lines += ["", f"{heading} {side.capitalize()}: {SKILL[side][1]} against {opponent}", "", "| task | " + " | ".join(f"`{n}`" for n in names) + " |",
-                  "|---|" + "---|" * len(names)]
+        lines += ["", f"{heading} {side.capitalize()}: {SKILL[side][1]} against {opponent}", "", "| task | " + " | ".join(f"`{n}`" for n in names) + " |", "|---|" + "---|" * len(names)]
         for task in TASK_ORDER:
             cells = []
             for n in names:
@@ -124,8 +122,11 @@ def tables_markdown(table: dict, heading: str = "##") -> str:
             lines.append(f"| `{task}` | " + " | ".join(cells) + " |")
         learners = [n for n in names if table[side][n]["kind"] == "learned"]
         if learners:
-            lines += ["", "Over the tasks trained so far (IQM over every task × seed, 95 % stratified bootstrap interval; a task enters once it "
-                      "has two seeds, the fewest a stratum can be resampled from):", ""]
+            lines += [
+                "",
+                "Over the tasks trained so far (IQM over every task × seed, 95 % stratified bootstrap interval; a task enters once it has two seeds, the fewest a stratum can be resampled from):",
+                "",
+            ]
             for n in learners:
                 per_task = [np.asarray(r["runs"]) for r in table[side][n]["tasks"].values() if len(r["runs"]) >= 2]
                 if not per_task:
@@ -138,6 +139,7 @@ def tables_markdown(table: dict, heading: str = "##") -> str:
 def front_page_markdown(table: dict) -> str:
     """README's benchmark table: per task the best law and the best learner of each side (a
     learner by its IQM over seeds), then how often the best law leads."""
+
     def best(side: str, kind: str, task: str) -> tuple[str, dict] | None:
         rows = [(name, entry["tasks"][task]) for name, entry in table[side].items() if entry["kind"] == kind and task in entry["tasks"]]
         return max(rows, key=lambda row: row[1]["score"]) if rows else None
@@ -148,8 +150,7 @@ def front_page_markdown(table: dict) -> str:
         name, row = found
         return f"`{name}` {100 * row['score']:.1f} %" + (f" (n={len(row['runs'])})" if seeds else "")
 
-    lines = ["| task | wolves, best law: captured | wolves, best learned: captured (IQM over seeds) | targets, best law: survived | targets, best learned: survived (IQM) |",
-             "|---|---|---|---|---|"]
+    lines = ["| task | wolves, best law: captured | wolves, best learned: captured (IQM over seeds) | targets, best law: survived | targets, best learned: survived (IQM) |", "|---|---|---|---|---|"]
     law_leads, compared = 0, 0
     for task in TASK_ORDER:
         law, learner = best("wolves", "law", task), best("wolves", "learned", task)
@@ -210,8 +211,7 @@ def profile_figure(table: dict, path: Path) -> None:
         for name, entry in table[side].items():
             per_task = [np.asarray(r["runs"]) for r in entry["tasks"].values()]
             learned = entry["kind"] == "learned"
-            line = ax.plot(100 * TAUS, profile(per_task), lw=2 if learned else 1.2, ls="-" if learned else "--",
-                           label=f"{name} ({len(per_task)} task{'s' if len(per_task) != 1 else ''})")[0]
+            line = ax.plot(100 * TAUS, profile(per_task), lw=2 if learned else 1.2, ls="-" if learned else "--", label=f"{name} ({len(per_task)} task{'s' if len(per_task) != 1 else ''})")[0]
             if learned:
                 lo, hi = profile_band(per_task)
                 ax.fill_between(100 * TAUS, lo, hi, color=line.get_color(), alpha=0.2)

@@ -27,15 +27,14 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import yaml
-
 import wolfpack
+import yaml
 from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
-from wolfpack.models import SavedPolicy, load_policy, native_model_folders
-from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode, side_observation
 from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, TRAIN_SEED_BASE, Policy, report, rollout, wilson_interval  # noqa: F401  (re-exported for the scripts)
+from wolfpack.models import SavedPolicy, load_policy, native_model_folders
+from wolfpack.opponents import CONFIG_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode, side_observation
 
 SIDES = ("wolves", "targets")
 WOLF_LAWS = SCRIPTED_LAWS["wolves"]
@@ -232,10 +231,7 @@ def load_model(where: str | Path, device: str = "cpu", side: str | None = None) 
     expected = observation_size(params, side)
     got = int(model.observation_space.shape[0])
     if got != expected:
-        raise UsageError(
-            f"model {zip_path}: it takes {got} observations, but this version of wolfpack gives the {side} "
-            f"{expected} on its params (trained on an older observation layout? retrain it)"
-        )
+        raise UsageError(f"model {zip_path}: it takes {got} observations, but this version of wolfpack gives the {side} {expected} on its params (trained on an older observation layout? retrain it)")
     return TrainedModel(zip_path, side, algo, params, config, model)
 
 

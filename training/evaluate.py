@@ -45,8 +45,6 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from wolfpack.models import native_model_folders  # noqa: E402
-
 from common import (  # noqa: E402
     TARGET_LAWS,
     WOLF_LAWS,
@@ -66,6 +64,7 @@ from common import (  # noqa: E402
     seed_int,
     with_laws,
 )
+from wolfpack.models import native_model_folders  # noqa: E402
 
 COLUMNS = (
     ("wolves", "wolves", "{}"),
@@ -181,9 +180,27 @@ def build_parser() -> argparse.ArgumentParser:
 
 # --- cross-play ------------------------------------------------------------------------------
 
-MATRIX_KEYS = ("wolves", "targets", "episodes", "first_seed", "capture_rate", "capture_rate_ci95", "survival_rate", "median_capture_steps", "mean_capture_steps",
-               "collision_rate", "target_collision_rate", "timeout_rate", "cornered_rate", "success_rate", "ever_cornered_rate", "mean_energy",
-               "mean_return_wolves", "mean_return_targets", "median_final_target_wall_distance")
+MATRIX_KEYS = (
+    "wolves",
+    "targets",
+    "episodes",
+    "first_seed",
+    "capture_rate",
+    "capture_rate_ci95",
+    "survival_rate",
+    "median_capture_steps",
+    "mean_capture_steps",
+    "collision_rate",
+    "target_collision_rate",
+    "timeout_rate",
+    "cornered_rate",
+    "success_rate",
+    "ever_cornered_rate",
+    "mean_energy",
+    "mean_return_wolves",
+    "mean_return_targets",
+    "median_final_target_wall_distance",
+)
 
 
 def expand_models(paths: list[str]) -> list[str]:
@@ -268,9 +285,12 @@ def matrix_summary_markdown(doc: dict) -> str:
     worst case): what RESULTS.md quotes, without the every-column table below it."""
     by = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
     wolves, targets, rob = doc["wolves"], doc["targets"], doc["robustness"]
-    lines = [f"Capture rate (95 % interval) · wolf collisions; {doc['episodes']} episodes per cell, seeds {doc['seed']}–{doc['seed'] + doc['episodes'] - 1}; "
-             f"played in {scenario_name(doc['params'])}.", "",
-             "| wolves \\ targets | " + " | ".join(targets) + " | worst case (capture) |", "|---|" + "---|" * (len(targets) + 1)]
+    lines = [
+        f"Capture rate (95 % interval) · wolf collisions; {doc['episodes']} episodes per cell, seeds {doc['seed']}–{doc['seed'] + doc['episodes'] - 1}; played in {scenario_name(doc['params'])}.",
+        "",
+        "| wolves \\ targets | " + " | ".join(targets) + " | worst case (capture) |",
+        "|---|" + "---|" * (len(targets) + 1),
+    ]
     for w in wolves:
         cells = []
         for t in targets:
@@ -379,8 +399,17 @@ def run_matrix(args, base: dict, model_paths: list[str], out: Path | None) -> in
                     raise
     wolves = [names.get(w, w) for w in wolf_specs]
     targets = [names.get(t, t) for t in target_specs]
-    doc = {"episodes": args.episodes, "seed": args.seed, "params": base, "wolves": wolves, "targets": targets, "models": {names[p]: str(p) for p, _ in models},
-           "cells": cells, "robustness": robustness(cells, wolves, targets), "skipped": skipped}
+    doc = {
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "params": base,
+        "wolves": wolves,
+        "targets": targets,
+        "models": {names[p]: str(p) for p, _ in models},
+        "cells": cells,
+        "robustness": robustness(cells, wolves, targets),
+        "skipped": skipped,
+    }
     table = matrix_markdown(doc)
     if out is not None:
         (out / "matrix.md").write_text(table + "\n")

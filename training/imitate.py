@@ -40,11 +40,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
-
 from common import (  # noqa: E402
     HELD_OUT_SEED,
-    HYPERPARAMS_PATH,
     IMITATION_SEED_BASE,
     MODEL_FILE,
     SIDES,
@@ -119,10 +116,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
     import torch
+    import wolfpack
     from stable_baselines3.common.utils import set_random_seed
     from tqdm import tqdm
-
-    import wolfpack
 
     torch.set_num_threads(args.torch_threads)
     set_random_seed(args.seed)
@@ -162,7 +158,11 @@ def main(argv: list[str] | None = None) -> int:
 
     def held_out() -> dict:
         kw = {side: act}
-        row = report(rollout(params, episodes=args.eval_episodes, seed=HELD_OUT_SEED, threads=args.threads, **kw), "cloned" if side == "wolves" else params["policies"]["wolves"], "cloned" if side == "targets" else params["policies"]["targets"])
+        row = report(
+            rollout(params, episodes=args.eval_episodes, seed=HELD_OUT_SEED, threads=args.threads, **kw),
+            "cloned" if side == "wolves" else params["policies"]["wolves"],
+            "cloned" if side == "targets" else params["policies"]["targets"],
+        )
         row.pop("capture_steps")
         return row
 
@@ -205,11 +205,13 @@ def main(argv: list[str] | None = None) -> int:
                 optimiser.step()
                 losses.append(loss.item())
         row = held_out()
-        entry = {"round": r, "beta": beta, "samples": int(len(X)), "loss": float(np.mean(losses[-max(1, len(losses) // args.epochs):])), "held_out": row, "elapsed_s": time.perf_counter() - t0}
+        entry = {"round": r, "beta": beta, "samples": int(len(X)), "loss": float(np.mean(losses[-max(1, len(losses) // args.epochs) :])), "held_out": row, "elapsed_s": time.perf_counter() - t0}
         history.append(entry)
         if score(row) > best_score:
             best_state, best_score, best_round = copy.deepcopy(policy.state_dict()), score(row), r
-        print(f"round {r}: beta {beta:.3f}, {len(X)} samples, loss {entry['loss']:.4f}, held-out capture rate {100 * row['capture_rate']:.1f} %, median steps {row['median_capture_steps']}", flush=True)
+        print(
+            f"round {r}: beta {beta:.3f}, {len(X)} samples, loss {entry['loss']:.4f}, held-out capture rate {100 * row['capture_rate']:.1f} %, median steps {row['median_capture_steps']}", flush=True
+        )
         (out / "imitation.json").write_text(json.dumps({"best_round": best_round, "rounds": history}, indent=1) + "\n")
 
     # DAgger returns the best policy of its rounds on held-out episodes (Ross et al., 2011);
@@ -223,9 +225,11 @@ def main(argv: list[str] | None = None) -> int:
     model.save(out / MODEL_FILE)
     plot(out, history, side)
     final = history[best_round]["held_out"]
-    print(f"best round {best_round}: imitation of {params['policies'][side]} ({side}): held-out capture rate {100 * final['capture_rate']:.1f} % "
-          f"[{100 * final['capture_rate_ci95'][0]:.1f}, {100 * final['capture_rate_ci95'][1]:.1f}], median capture steps {final['median_capture_steps']}; "
-          f"{time.perf_counter() - t0:.0f} s; model: {out / MODEL_FILE}")
+    print(
+        f"best round {best_round}: imitation of {params['policies'][side]} ({side}): held-out capture rate {100 * final['capture_rate']:.1f} % "
+        f"[{100 * final['capture_rate_ci95'][0]:.1f}, {100 * final['capture_rate_ci95'][1]:.1f}], median capture steps {final['median_capture_steps']}; "
+        f"{time.perf_counter() - t0:.0f} s; model: {out / MODEL_FILE}"
+    )
     return 0
 
 

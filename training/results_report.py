@@ -30,14 +30,13 @@ from typing import Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import yaml  # noqa: E402
-
 import benchmark_report  # noqa: E402
 import evaluate  # noqa: E402
 import exploitability  # noqa: E402
 import imitate  # noqa: E402
 import seeds  # noqa: E402
 import selfplay  # noqa: E402
+import yaml  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BEGIN = re.compile(r"^<!-- generated: ([a-z0-9-]+) -->\n", re.M)
@@ -183,8 +182,10 @@ def wall_factor(results: Results) -> str:
     lines = ["| target's wall κ | episodes | captured | wolf collisions | timeout | median capture step | ever cornered |", "|---|---|---|---|---|---|---|"]
     for label, file in WALL_FACTOR_RUNS:
         r = row_of(results.json(file), "seed000", "escape")
-        lines.append(f"| {label} | {r['episodes']} | {percent(r['capture_rate'])} | {percent(r['collision_rate'])} | {percent(r['timeout_rate'])} "
-                     f"| {r['median_capture_steps']:g} | {percent(r['ever_cornered_rate'])} |")
+        lines.append(
+            f"| {label} | {r['episodes']} | {percent(r['capture_rate'])} | {percent(r['collision_rate'])} | {percent(r['timeout_rate'])} "
+            f"| {r['median_capture_steps']:g} | {percent(r['ever_cornered_rate'])} |"
+        )
     return "\n".join(lines)
 
 
@@ -196,11 +197,14 @@ def escape_ppo(results: Results) -> str:
     learned = row_of(results.json("results.json"), "seed000", "ppo:escape_ppo")
     wall = results.json("models/escape_ppo/train_summary.json")["wall_s"]
     ratio = learned["survival_rate"] / scripted["survival_rate"]
-    return "\n".join([
-        "| target vs seed000 wolves (κ = 1.2, the model's params) | survived (not captured) | 95% CI | vs scripted escape |", "|---|---|---|---|",
-        f"| scripted `escape` | {percent(scripted['survival_rate'])} | {interval(scripted['capture_rate_ci95'], survival=True)} | 1× |",
-        f"| PPO, final model ({wall / 60:.0f} min) | **{percent(learned['survival_rate'])}** | {interval(learned['capture_rate_ci95'], survival=True)} | **{ratio:.1f}×** |",
-    ])
+    return "\n".join(
+        [
+            "| target vs seed000 wolves (κ = 1.2, the model's params) | survived (not captured) | 95% CI | vs scripted escape |",
+            "|---|---|---|---|",
+            f"| scripted `escape` | {percent(scripted['survival_rate'])} | {interval(scripted['capture_rate_ci95'], survival=True)} | 1× |",
+            f"| PPO, final model ({wall / 60:.0f} min) | **{percent(learned['survival_rate'])}** | {interval(learned['capture_rate_ci95'], survival=True)} | **{ratio:.1f}×** |",
+        ]
+    )
 
 
 @block("wolves-imitation")
@@ -215,15 +219,27 @@ def wolves_imitation(results: Results) -> str:
     def line(name: str, r: dict, capture: str, steps: str, energy: str) -> str:
         return f"| {name} | {capture} | {interval(r['capture_rate_ci95'])} | {steps} | {percent(r['collision_rate'])} | {energy} |"
 
-    return "\n".join([
-        "| wolves vs scripted escape (κ = 1.2, the models' params) | capture | 95% CI | median capture step | wolf collisions | energy (J) |", "|---|---|---|---|---|---|",
-        line("seed000 (analytic)", law, percent(law["capture_rate"]), f"{law['median_capture_steps']:.1f}", f"{law['mean_energy']:.0f}"),
-        line(f"imitation (BC + DAgger), {clone_min:.0f} min", clone, f"{percent(clone['capture_rate'])} (**{percent(clone['capture_rate'] / law['capture_rate'])} of seed000**)",
-             f"{clone['median_capture_steps']:.1f}", f"{clone['mean_energy']:.0f}"),
-        line(f"imitation + PPO fine-tuning, {tuned_min:.0f} min", tuned, percent(tuned["capture_rate"]),
-             f"**{tuned['median_capture_steps']:.1f} ({change(tuned['median_capture_steps'], law['median_capture_steps'])})**",
-             f"**{tuned['mean_energy']:.0f} ({change(tuned['mean_energy'], law['mean_energy'])})**"),
-    ])
+    return "\n".join(
+        [
+            "| wolves vs scripted escape (κ = 1.2, the models' params) | capture | 95% CI | median capture step | wolf collisions | energy (J) |",
+            "|---|---|---|---|---|---|",
+            line("seed000 (analytic)", law, percent(law["capture_rate"]), f"{law['median_capture_steps']:.1f}", f"{law['mean_energy']:.0f}"),
+            line(
+                f"imitation (BC + DAgger), {clone_min:.0f} min",
+                clone,
+                f"{percent(clone['capture_rate'])} (**{percent(clone['capture_rate'] / law['capture_rate'])} of seed000**)",
+                f"{clone['median_capture_steps']:.1f}",
+                f"{clone['mean_energy']:.0f}",
+            ),
+            line(
+                f"imitation + PPO fine-tuning, {tuned_min:.0f} min",
+                tuned,
+                percent(tuned["capture_rate"]),
+                f"**{tuned['median_capture_steps']:.1f} ({change(tuned['median_capture_steps'], law['median_capture_steps'])})**",
+                f"**{tuned['mean_energy']:.0f} ({change(tuned['mean_energy'], law['mean_energy'])})**",
+            ),
+        ]
+    )
 
 
 @block("laws-vs-escape-ppo")
@@ -231,8 +247,10 @@ def laws_vs_escape_ppo(results: Results) -> str:
     """The three laws against the scripted escape target in both wall-factor worlds and against the
     SB3 escaper of (a) (the matrix's cells: the wall factor steers only the scripted target)."""
     source, default, matrix = results.json(SOURCE_WALL), results.json("results.json"), results.json("matrix/matrix.json")
-    lines = ["| wolves vs | scripted escape, κ 1.2: captured / collisions / median | scripted escape, defaults (κ 1.6 / 1.3) | learned escape (a): captured (95 % CI) / median / collisions |",
-             "|---|---|---|---|"]
+    lines = [
+        "| wolves vs | scripted escape, κ 1.2: captured / collisions / median | scripted escape, defaults (κ 1.6 / 1.3) | learned escape (a): captured (95 % CI) / median / collisions |",
+        "|---|---|---|---|",
+    ]
 
     def short(r: dict) -> str:
         return f"{percent(r['capture_rate'])} / {percent(r['collision_rate'])} / {r['median_capture_steps']:g}"
@@ -240,8 +258,10 @@ def laws_vs_escape_ppo(results: Results) -> str:
     for law in LAWS:
         learned = row_of(matrix, law, "ppo:escape_ppo")
         lo, hi = learned["capture_rate_ci95"]
-        lines.append(f"| {law} | {short(row_of(source, law, 'escape'))} | {short(row_of(default, law, 'escape'))} "
-                     f"| {percent(learned['capture_rate'])} ({100 * lo:.1f}–{100 * hi:.1f}) / {learned['median_capture_steps']:g} / {percent(learned['collision_rate'])} |")
+        lines.append(
+            f"| {law} | {short(row_of(source, law, 'escape'))} | {short(row_of(default, law, 'escape'))} "
+            f"| {percent(learned['capture_rate'])} ({100 * lo:.1f}–{100 * hi:.1f}) / {learned['median_capture_steps']:g} / {percent(learned['collision_rate'])} |"
+        )
     return "\n".join(lines)
 
 
@@ -285,17 +305,24 @@ def league_targets(results: Results) -> str:
 
     best = max(wolves, key=lambda w: capture(w, "escape"))
     league = [capture(w, "escape") for w in wolves if w.startswith("ppo:league/")]
-    rows.append((f"learned wolves ≥ {100 * LEAGUE_WOLVES_VS_ESCAPE:.0f} % against scripted escape",
-                 f"best learned: {model_name(best)} {percent(capture(best, 'escape'))} ({percent(collisions(best, 'escape'))} collisions); "
-                 f"league wolves {100 * min(league):.0f}–{100 * max(league):.0f} %",
-                 yes_no(capture(best, "escape") >= LEAGUE_WOLVES_VS_ESCAPE)))
+    rows.append(
+        (
+            f"learned wolves ≥ {100 * LEAGUE_WOLVES_VS_ESCAPE:.0f} % against scripted escape",
+            f"best learned: {model_name(best)} {percent(capture(best, 'escape'))} ({percent(collisions(best, 'escape'))} collisions); league wolves {100 * min(league):.0f}–{100 * max(league):.0f} %",
+            yes_no(capture(best, "escape") >= LEAGUE_WOLVES_VS_ESCAPE),
+        )
+    )
 
     best = max(wolves, key=lambda w: capture(w, "ppo:escape_ppo"))
     rate = capture(best, "ppo:escape_ppo")
     lo, hi = cells[best, "ppo:escape_ppo"]["capture_rate_ci95"]
-    rows.append((f"learned wolves ≥ {100 * LEAGUE_WOLVES_VS_ESCAPER:.0f} % against the learned escaper escape_ppo",
-                 f"best: {model_name(best)} {percent(rate)} ({100 * lo:.0f}–{100 * hi:.0f} %)",
-                 yes_no(rate >= LEAGUE_WOLVES_VS_ESCAPER, f" ({100 * (LEAGUE_WOLVES_VS_ESCAPER - rate):.1f} points short)")))
+    rows.append(
+        (
+            f"learned wolves ≥ {100 * LEAGUE_WOLVES_VS_ESCAPER:.0f} % against the learned escaper escape_ppo",
+            f"best: {model_name(best)} {percent(rate)} ({100 * lo:.0f}–{100 * hi:.0f} %)",
+            yes_no(rate >= LEAGUE_WOLVES_VS_ESCAPER, f" ({100 * (LEAGUE_WOLVES_VS_ESCAPER - rate):.1f} points short)"),
+        )
+    )
 
     both = ("escape", "ppo:escape_ppo")
     law = max(LAWS, key=lambda w: min(capture(w, t) for t in both))
@@ -305,24 +332,35 @@ def league_targets(results: Results) -> str:
         return f"{100 * min(collisions(w, t) for t in both):.1f}–{100 * max(collisions(w, t) for t in both):.1f} %"
 
     met = all(collisions(best, t) <= LEAGUE_COLLISIONS for t in both) and not better
-    rows.append((f"… with ≤ {100 * LEAGUE_COLLISIONS:.0f} % wolf collisions, better than every analytic law on both",
-                 f"{model_name(best)}: {spread(best)} collisions; {law}: {' / '.join(percent(capture(law, t)) for t in both)} with {spread(law)}",
-                 yes_no(met, f": {' and '.join(better)} {'is' if len(better) == 1 else 'are'} better on both" if better else "")))
+    rows.append(
+        (
+            f"… with ≤ {100 * LEAGUE_COLLISIONS:.0f} % wolf collisions, better than every analytic law on both",
+            f"{model_name(best)}: {spread(best)} collisions; {law}: {' / '.join(percent(capture(law, t)) for t in both)} with {spread(law)}",
+            yes_no(met, f": {' and '.join(better)} {'is' if len(better) == 1 else 'are'} better on both" if better else ""),
+        )
+    )
 
     best = max(escapers, key=lambda t: min(survival(t, w) for w in LAWS))
     beaten = [w for w in LAWS if any(survival(t, w) >= LEAGUE_ESCAPER_SURVIVAL for t in escapers)]
-    rows.append((f"a learned escaper survives ≥ {100 * LEAGUE_ESCAPER_SURVIVAL:.0f} % against each of {', '.join(LAWS[:-1])} and {LAWS[-1]}",
-                 f"best against its worst law: {model_name(best)} {' / '.join(percent(survival(best, w)) for w in LAWS)}; "
-                 f"survived ≥ {100 * LEAGUE_ESCAPER_SURVIVAL:.0f} % by some escaper: {', '.join(beaten) or 'none'}",
-                 yes_no(len(beaten) == len(LAWS) and min(survival(best, w) for w in LAWS) >= LEAGUE_ESCAPER_SURVIVAL,
-                        f" ({', '.join(beaten)} only)" if beaten else "")))
+    rows.append(
+        (
+            f"a learned escaper survives ≥ {100 * LEAGUE_ESCAPER_SURVIVAL:.0f} % against each of {', '.join(LAWS[:-1])} and {LAWS[-1]}",
+            f"best against its worst law: {model_name(best)} {' / '.join(percent(survival(best, w)) for w in LAWS)}; "
+            f"survived ≥ {100 * LEAGUE_ESCAPER_SURVIVAL:.0f} % by some escaper: {', '.join(beaten) or 'none'}",
+            yes_no(len(beaten) == len(LAWS) and min(survival(best, w) for w in LAWS) >= LEAGUE_ESCAPER_SURVIVAL, f" ({', '.join(beaten)} only)" if beaten else ""),
+        )
+    )
 
     wall = {}
     for g in results.json("league/league.json")["generations"]:
         wall[g["side"]] = wall.get(g["side"], 0.0) + g["wall_s"] / 60
-    rows.append((f"within ≤ {LEAGUE_HOURS_PER_SIDE} h per side on 2 cores",
-                 "league: " + " and ".join(f"{m:.0f} min ({side})" for side, m in wall.items()),
-                 yes_no(max(wall.values()) <= 60 * LEAGUE_HOURS_PER_SIDE)))
+    rows.append(
+        (
+            f"within ≤ {LEAGUE_HOURS_PER_SIDE} h per side on 2 cores",
+            "league: " + " and ".join(f"{m:.0f} min ({side})" for side, m in wall.items()),
+            yes_no(max(wall.values()) <= 60 * LEAGUE_HOURS_PER_SIDE),
+        )
+    )
     return "\n".join(["| target | measured (seeds 0–199) | met? |", "|---|---|---|", *(f"| {a} | {b} | {c} |" for a, b, c in rows)])
 
 
@@ -414,8 +452,10 @@ def wolves_pool_seeds(results: Results) -> str:
         step = seeds.median_capture_step(entry["rows"])
         learned = ":" in name
         in_pool = "yes" if name in pool else bold("no", learned)
-        lines.append(f"| {label} | {in_pool} | {bold(seeds.iqm_cell(entry['skill']), k < 2)} | {seeds.range_cell(entry['skill'])} "
-                     f"| {bold(seeds.iqm_cell(entry['collision_rate']), k == 0)} | {'—' if step is None else f'{step:g}'} |")
+        lines.append(
+            f"| {label} | {in_pool} | {bold(seeds.iqm_cell(entry['skill']), k < 2)} | {seeds.range_cell(entry['skill'])} "
+            f"| {bold(seeds.iqm_cell(entry['collision_rate']), k == 0)} | {'—' if step is None else f'{step:g}'} |"
+        )
     return "\n".join(lines)
 
 
@@ -440,12 +480,16 @@ def ippo_vs_mappo(results: Results) -> str:
     """(h): the two critics at a fixed budget, speed and skill side by side."""
     speeds = {algo: training_speeds(results, f"learned/ippo_vs_mappo/{algo}") for algo in ("ippo", "mappo")}
     timed = sorted(set().union(*speeds.values()))
-    lines = [f"| algorithm | agent-steps/s (seeds {timed[0]}–{timed[-1]}) | against escape: captured IQM [95 % CI] | collisions IQM [95 % CI] | against escape_ppo: captured |",
-             "|---|---|---|---|---|"]
+    lines = [
+        f"| algorithm | agent-steps/s (seeds {timed[0]}–{timed[-1]}) | against escape: captured IQM [95 % CI] | collisions IQM [95 % CI] | against escape_ppo: captured |",
+        "|---|---|---|---|---|",
+    ]
     for algo, per_seed in speeds.items():
         opponents = results.json(f"learned/ippo_vs_mappo/{algo}/seeds.json")["opponents"]
-        lines.append(f"| {algo.upper()} | {min(per_seed.values()) / 1e3:.0f}–{max(per_seed.values()) / 1e3:.0f} k | {seeds.iqm_cell(opponents['escape']['skill'])} "
-                     f"| {seeds.iqm_cell(opponents['escape']['collision_rate'])} | {seeds.iqm_cell(opponents['ppo:escape_ppo']['skill'])} |")
+        lines.append(
+            f"| {algo.upper()} | {min(per_seed.values()) / 1e3:.0f}–{max(per_seed.values()) / 1e3:.0f} k | {seeds.iqm_cell(opponents['escape']['skill'])} "
+            f"| {seeds.iqm_cell(opponents['escape']['collision_rate'])} | {seeds.iqm_cell(opponents['ppo:escape_ppo']['skill'])} |"
+        )
     return "\n".join(lines)
 
 
@@ -464,8 +508,10 @@ def environment_share(results: Results) -> str:
         worlds = results.yaml(f"models/{name}/config.yaml")["num_envs"]
         slots = worlds * round(s["timesteps"] / s["world_steps"])
         total = s["training_s"]
-        lines.append(f"| `{name}` ({worlds} worlds, {slots} slots) | {total:.0f} s | {s['env_s']:.0f} s (**{percent(s['env_share_of_training'])}**) "
-                     f"| {s['collect_s']:.0f} s ({percent(s['collect_s'] / total)}) | {s['update_s']:.0f} s ({percent(s['update_s'] / total)}) |")
+        lines.append(
+            f"| `{name}` ({worlds} worlds, {slots} slots) | {total:.0f} s | {s['env_s']:.0f} s (**{percent(s['env_share_of_training'])}**) "
+            f"| {s['collect_s']:.0f} s ({percent(s['collect_s'] / total)}) | {s['update_s']:.0f} s ({percent(s['update_s'] / total)}) |"
+        )
     return "\n".join(lines)
 
 
@@ -509,14 +555,25 @@ def figures(results: Results) -> list[Path]:
     evaluate.plot(rows, root / "figures")
     evaluate.matrix_plot(results.json("matrix/matrix.json"), root / "matrix" / "matrix.png")
     selfplay.league_curves(root / "league_native", results.json("league_native/league.json"))
-    imitate.plot(root / "models" / "wolves_bc_vel_b", results.json("models/wolves_bc_vel_b/imitation.json")["rounds"], "wolves",
-                 path=root / "figures" / "wolves_bc_imitation.png")
+    imitate.plot(root / "models" / "wolves_bc_vel_b", results.json("models/wolves_bc_vel_b/imitation.json")["rounds"], "wolves", path=root / "figures" / "wolves_bc_imitation.png")
     benchmark_report.task_figure(benchmark_baselines(results), root / "benchmark" / "tasks.png")
     benchmark_report.profile_figure(benchmark_baselines(results), root / "benchmark" / "profiles.png")
-    drawn = [root / "figures" / "capture_rates.png", root / "figures" / "capture_times.png", root / "matrix" / "matrix.png", root / "league_native" / "league_curves.png",
-             root / "figures" / "wolves_bc_imitation.png", root / "benchmark" / "tasks.png", root / "benchmark" / "profiles.png"]
-    for folder, axis in (("learned/wolves_mappo", "minutes"), ("learned/wolves_pool", "minutes"), ("learned/targets_mappo", "minutes"),
-                         ("learned/ippo_vs_mappo/ippo", "steps"), ("learned/ippo_vs_mappo/mappo", "steps")):
+    drawn = [
+        root / "figures" / "capture_rates.png",
+        root / "figures" / "capture_times.png",
+        root / "matrix" / "matrix.png",
+        root / "league_native" / "league_curves.png",
+        root / "figures" / "wolves_bc_imitation.png",
+        root / "benchmark" / "tasks.png",
+        root / "benchmark" / "profiles.png",
+    ]
+    for folder, axis in (
+        ("learned/wolves_mappo", "minutes"),
+        ("learned/wolves_pool", "minutes"),
+        ("learned/targets_mappo", "minutes"),
+        ("learned/ippo_vs_mappo/ippo", "steps"),
+        ("learned/ippo_vs_mappo/mappo", "steps"),
+    ):
         doc = results.json(f"{folder}/seeds.json")
         runs = [root / folder / Path(run).name for run in doc["runs"]]
         seeds.curves(root / folder, runs, doc["side"], axis, opponent=next(iter(doc["opponents"])))
@@ -582,8 +639,7 @@ def check(documents: Path | list[Path], results: Path) -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="results_report.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--results", type=Path, default=ROOT / "results", help="the results folder the tables are made from (default: results/)")
-    p.add_argument("--out", type=Path, nargs="+", default=DOCUMENTS, metavar="FILE",
-                   help="the documents whose generated blocks are rewritten (default: RESULTS.md, README.md, docs/tasks.md)")
+    p.add_argument("--out", type=Path, nargs="+", default=DOCUMENTS, metavar="FILE", help="the documents whose generated blocks are rewritten (default: RESULTS.md, README.md, docs/tasks.md)")
     p.add_argument("--check", action="store_true", help="write nothing; exit 1 if any generated block differs from what the results give")
     p.add_argument("--figures", action="store_true", help="also redraw, in --results, the figures drawn from committed JSON")
     args = p.parse_args(argv)

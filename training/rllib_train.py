@@ -44,9 +44,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import UsageError, env_params, positive_float, positive_int, seed_int  # noqa: E402
-
 import wolfpack  # noqa: E402
+from common import UsageError, env_params, positive_float, positive_int, seed_int  # noqa: E402
 from wolfpack.rllib import env_creator, shared_mapping, side_mapping  # noqa: E402
 
 ENV_NAME = "wolfpack_parallel"

@@ -30,8 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
-
-from common import UsageError, load_model, play, prepare_out, report, seed_int, positive_int  # noqa: E402
+from common import UsageError, load_model, play, positive_int, prepare_out, report, seed_int  # noqa: E402
 from evaluate import expand_models  # noqa: E402
 
 OTHER = {"wolves": "targets", "targets": "wolves"}
@@ -149,8 +148,12 @@ def main(argv: list[str] | None = None) -> int:
             name = opp if isinstance(opp, str) else opp.label
             per_opponent.setdefault(name, []).append({"run": str(m.path.parent), **row})
     doc = {"side": side, "episodes": args.episodes, "first_seed": args.seed, "runs": [str(Path(r)) for r in args.runs], "opponents": {}}
-    lines = [f"{side}, {len(models)} training seeds, {args.episodes} episodes (seeds {args.seed}–{args.seed + args.episodes - 1}) per model and opponent, deterministic",
-             "", f"| opponent | {'capture' if side == 'wolves' else 'survival'} IQM [95 % CI] | median (range) | wolf collisions IQM [95 % CI] | median capture step |", "|---|---|---|---|---|"]
+    lines = [
+        f"{side}, {len(models)} training seeds, {args.episodes} episodes (seeds {args.seed}–{args.seed + args.episodes - 1}) per model and opponent, deterministic",
+        "",
+        f"| opponent | {'capture' if side == 'wolves' else 'survival'} IQM [95 % CI] | median (range) | wolf collisions IQM [95 % CI] | median capture step |",
+        "|---|---|---|---|---|",
+    ]
     for name, rows in per_opponent.items():
         s = iqm_interval([skill(side, r) for r in rows])
         c = iqm_interval([r["collision_rate"] for r in rows])

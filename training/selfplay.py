@@ -62,13 +62,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import yaml  # noqa: E402
-
-from wolfpack.batch import resolve_params  # noqa: E402
-from wolfpack.config import parse_override  # noqa: E402
-from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides  # noqa: E402
-from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
-from wolfpack.opponents import CONFIG_FILE, side_action_mode  # noqa: E402
-
 from common import (  # noqa: E402
     HELD_OUT_SEED,
     SIDES,
@@ -84,6 +77,11 @@ from common import (  # noqa: E402
     report,
     seed_int,
 )
+from wolfpack.batch import resolve_params  # noqa: E402
+from wolfpack.config import parse_override  # noqa: E402
+from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides  # noqa: E402
+from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
+from wolfpack.opponents import CONFIG_FILE, side_action_mode  # noqa: E402
 
 LEAGUE_FILE = "league.json"
 #: 2: members trained by ``wolfpack train``'s trainer (1 was SB3's PPO).
@@ -118,7 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--first", choices=SIDES, default="targets", help="the side of generation 1 (default targets)")
     p.add_argument("--pool-sampling", choices=SAMPLING, default="prioritised", help="how each rollout's opponent is drawn (default prioritised)")
     p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=list(WOLF_LAWS), metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
-    p.add_argument("--fixed-targets", type=laws_arg("targets"), default=["escape"], metavar="LAWS", help="comma-separated target laws in the pool (default escape; random and still teach wolves little)")
+    p.add_argument(
+        "--fixed-targets", type=laws_arg("targets"), default=["escape"], metavar="LAWS", help="comma-separated target laws in the pool (default escape; random and still teach wolves little)"
+    )
     p.add_argument("--member", dest="members", action="append", default=[], metavar="RUN", help="an existing model (run folder) as a fixed member of its side's pool (repeatable)")
     p.add_argument("--init-wolves", default=None, metavar="RUN", help="the wolves' first learner starts from this run of wolfpack train (its trainer.pt: actor, critic, normalisers)")
     p.add_argument("--init-targets", default=None, metavar="RUN", help="the targets' first learner starts from this run of wolfpack train")
@@ -253,7 +253,6 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     """Trains generation ``k`` (``side``) with ``wolfpack train``'s trainer and freezes it as a
     member; None when no update finished (interrupted, or no time left)."""
     import torch
-
     from wolfpack.learn.cli import default_threads
     from wolfpack.learn.trainer import Trainer, TrainSpec
 
@@ -276,9 +275,21 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
         return None
     cores_env, cores_torch = default_threads()
     torch.set_num_threads(args.torch_threads or cores_torch)
-    spec = TrainSpec(learners=side, algo=league["algo"], params=league["params"], recipes={side: recipe(side, league["algo"], hp)}, seed=league["seed"] * 10_000 + k,
-                     timesteps=args.timesteps, time_limit_min=minutes, threads=args.threads or cores_env, torch_threads=args.torch_threads or cores_torch, device="cpu",
-                     eval_episodes=args.eval_episodes, evaluations=1, command=league["commands"][-1])
+    spec = TrainSpec(
+        learners=side,
+        algo=league["algo"],
+        params=league["params"],
+        recipes={side: recipe(side, league["algo"], hp)},
+        seed=league["seed"] * 10_000 + k,
+        timesteps=args.timesteps,
+        time_limit_min=minutes,
+        threads=args.threads or cores_env,
+        torch_threads=args.torch_threads or cores_torch,
+        device="cpu",
+        eval_episodes=args.eval_episodes,
+        evaluations=1,
+        command=league["commands"][-1],
+    )
     logs = out / "generations" / f"{k:02d}"
     if logs.exists():  # an interrupted generation: it starts again
         shutil.rmtree(logs)
@@ -303,11 +314,29 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     (folder / CONFIG_FILE).write_text(yaml.safe_dump(json.loads(json.dumps(config)), sort_keys=False))
     wall = summary["train_s"]
     return {
-        "member": {"name": name, "side": side, "kind": "model", "generation": k, "path": f"members/{name}", "state": f"generations/{k:02d}/{TRAINER_FILE}",
-                   "timesteps": summary["agent_steps"], "wall_s": round(wall, 1), "action_mode": side_action_mode(league["params"], side)},
-        "generation": {"generation": k, "side": side, "timesteps": summary["agent_steps"], "wall_s": round(wall, 1), "agent_steps_per_s": summary["this_invocation"]["agent_steps_per_s"],
-                       "started_from": started_from, "sampling": args.pool_sampling, "weights": dict(zip([m.name for m in pool], weights)), "opponents_drawn": drawn,
-                       "stopped_by_time_limit": summary["stopped_by"] == "time_limit"},
+        "member": {
+            "name": name,
+            "side": side,
+            "kind": "model",
+            "generation": k,
+            "path": f"members/{name}",
+            "state": f"generations/{k:02d}/{TRAINER_FILE}",
+            "timesteps": summary["agent_steps"],
+            "wall_s": round(wall, 1),
+            "action_mode": side_action_mode(league["params"], side),
+        },
+        "generation": {
+            "generation": k,
+            "side": side,
+            "timesteps": summary["agent_steps"],
+            "wall_s": round(wall, 1),
+            "agent_steps_per_s": summary["this_invocation"]["agent_steps_per_s"],
+            "started_from": started_from,
+            "sampling": args.pool_sampling,
+            "weights": dict(zip([m.name for m in pool], weights)),
+            "opponents_drawn": drawn,
+            "stopped_by_time_limit": summary["stopped_by"] == "time_limit",
+        },
     }
 
 
@@ -335,8 +364,12 @@ def league_table(league: dict, steps_header: str = "timesteps") -> str:
     generation. ``steps_header`` names what a generation's ``timesteps`` count (RESULTS.md calls
     the native trainer's agent-steps by their name)."""
     wolves, targets = members_of(league, "wolves"), members_of(league, "targets")
-    lines = ["capture rate (held-out episodes; rows: wolves, columns: targets; blank: not played)", "",
-             "| wolves \\ targets | " + " | ".join(t["name"] for t in targets) + " |", "|---|" + "---|" * len(targets)]
+    lines = [
+        "capture rate (held-out episodes; rows: wolves, columns: targets; blank: not played)",
+        "",
+        "| wolves \\ targets | " + " | ".join(t["name"] for t in targets) + " |",
+        "|---|" + "---|" * len(targets),
+    ]
     for w in wolves:
         cells = []
         for t in targets:
@@ -359,7 +392,6 @@ def league_curves(out: Path, league: dict) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
     from matplotlib.ticker import MaxNLocator
-
     from wolfpack.plots import line_styles
 
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.6), layout="constrained")

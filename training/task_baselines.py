@@ -40,7 +40,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from seeds import iqm_interval  # noqa: E402
 from sweep import held_out, train_once  # noqa: E402
-
 from wolfpack.evaluation import HELD_OUT_SEED  # noqa: E402
 from wolfpack.scorecard import DEFAULT_EPISODES, LEARNED_FILE, as_policy, score_task  # noqa: E402
 from wolfpack.task import TASK_ORDER  # noqa: E402
@@ -61,9 +60,11 @@ def run_folder(keep: Path, task: str, learner: str, seed: int) -> Path:
 
 def held_out_row(folder: Path, side: str, task: str, episodes: int, reevaluate: bool) -> dict:
     """The final model's scorecard row on its task."""
+
     def evaluate() -> dict:
         full = score_task(as_policy(str(folder / side), side), side, task, episodes=episodes, seed=HELD_OUT_SEED)
         return {k: full[k] for k in KEPT if k in full}
+
     return held_out(folder, episodes, evaluate, reevaluate)
 
 
@@ -75,8 +76,7 @@ def summarise(runs: list[dict]) -> dict:
         out[task] = {}
         for learner in dict.fromkeys(r["learner"] for r in runs if r["task"] == task):
             rows = [r for r in runs if r["task"] == task and r["learner"] == learner]
-            out[task][learner] = {**iqm_interval([r["score"] for r in rows]), "collision_rate_iqm": iqm_interval([r["collision_rate"] for r in rows])["iqm"],
-                                  "seeds": [r["seed"] for r in rows]}
+            out[task][learner] = {**iqm_interval([r["score"] for r in rows]), "collision_rate_iqm": iqm_interval([r["collision_rate"] for r in rows])["iqm"], "seeds": [r["seed"] for r in rows]}
     return out
 
 
@@ -105,8 +105,19 @@ def main(argv: list[str] | None = None) -> int:
                 folder = run_folder(args.keep, task, name, seed)
                 summary = train_once(folder, ["--side", side, "--algo", algo, "--task", task, "--timesteps", str(budgets[side]), "--seed", str(seed), "--evaluations", "2"])
                 row = held_out_row(folder, side, task, args.episodes, args.reevaluate)
-                runs.append({"task": task, "learner": name, "side": side, "algo": algo, "seed": seed, "agent_steps": summary["agent_steps"],
-                             "train_s": round(summary["train_s"], 1), **{k: row[k] for k in KEPT if k in row}, "run": str(folder)})
+                runs.append(
+                    {
+                        "task": task,
+                        "learner": name,
+                        "side": side,
+                        "algo": algo,
+                        "seed": seed,
+                        "agent_steps": summary["agent_steps"],
+                        "train_s": round(summary["train_s"], 1),
+                        **{k: row[k] for k in KEPT if k in row},
+                        "run": str(folder),
+                    }
+                )
                 doc = {
                     "what": "learned baselines: the native trainer's final models on each task, deterministic, on the held-out episodes",
                     "budgets": budgets,

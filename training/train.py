@@ -45,9 +45,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import yaml  # noqa: E402
-
 from common import (  # noqa: E402
-    CONFIG_FILE,
     HELD_OUT_SEED,
     HYPERPARAMS_PATH,
     MODEL_FILE,
@@ -77,7 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm (default ppo)")
     p.add_argument("--timesteps", required=True, type=positive_int, help="training budget in agent-steps")
     p.add_argument("--params", default=None, help="params YAML (default: the documented scenario, or with --init-from the source run's params)")
-    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override, e.g. policies.targets=random (repeatable; with --init-from, applied to the source run's params)")
+    p.add_argument(
+        "--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override, e.g. policies.targets=random (repeatable; with --init-from, applied to the source run's params)"
+    )
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="hyperparameter override, e.g. learning_rate=1e-4 (repeatable)")
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the training worlds and of torch (default 0)")
     p.add_argument("--out", required=True, help="run folder")
@@ -131,7 +131,11 @@ def held_out_evaluation(model_side: str, params: dict, out: Path, args):
             self.last = self.num_timesteps
             policy = lambda obs: self.model.predict(obs.reshape(-1, obs.shape[-1]), deterministic=True)[0].reshape(*obs.shape[:-1], 2).astype("float32")  # noqa: E731
             kw = {model_side: policy}
-            row = report(rollout(params, episodes=self.episodes, seed=HELD_OUT_SEED, threads=args.threads, **kw), "learned" if model_side == "wolves" else params["policies"]["wolves"], "learned" if model_side == "targets" else params["policies"]["targets"])
+            row = report(
+                rollout(params, episodes=self.episodes, seed=HELD_OUT_SEED, threads=args.threads, **kw),
+                "learned" if model_side == "wolves" else params["policies"]["wolves"],
+                "learned" if model_side == "targets" else params["policies"]["targets"],
+            )
             row.pop("capture_steps")
             row["timesteps"] = self.num_timesteps
             row["train_s"] = t0 - self.t_start - self.seconds  # wall time of training so far, evaluations excluded
@@ -296,10 +300,7 @@ def check_same_spaces(source, params: dict, side: str) -> None:
     ours = (observation_size(params, side), params["env"]["action_mode"])
     theirs = (int(source.model.observation_space.shape[0]), source.params["env"]["action_mode"])
     if theirs != ours:
-        raise UsageError(
-            f"--init-from {source.path.parent}: that model takes {theirs[0]} observations in "
-            f"{theirs[1]!r} action mode, these params give {ours[0]} in {ours[1]!r} mode"
-        )
+        raise UsageError(f"--init-from {source.path.parent}: that model takes {theirs[0]} observations in {theirs[1]!r} action mode, these params give {ours[0]} in {ours[1]!r} mode")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -327,11 +328,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
     import torch
+    import wolfpack
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecMonitor
-
-    import wolfpack
 
     torch.set_num_threads(args.torch_threads)
     set_random_seed(args.seed)

@@ -21,11 +21,11 @@ Public entry points (docs/interface.md in the repository has the whole interface
 """
 
 from wolfpack._core import __version__
-from wolfpack.config import DEFAULT_PARAMS_PATH, load_params, load_layout
-from wolfpack.episodes import run_episodes, summarize
 from wolfpack.batch import OUTCOMES, BatchEnv
-from wolfpack.opponents import Opponent
+from wolfpack.config import DEFAULT_PARAMS_PATH, load_layout, load_params
+from wolfpack.episodes import run_episodes, summarize
 from wolfpack.models import load_policy
+from wolfpack.opponents import Opponent
 from wolfpack.parallel_env import env, parallel_env
 from wolfpack.task import gym_id, single_target_tasks, tasks
 

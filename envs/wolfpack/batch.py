@@ -9,7 +9,6 @@ Observations, actions and rewards are documented in :mod:`wolfpack.parallel_env`
 from __future__ import annotations
 
 import difflib
-
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -18,8 +17,8 @@ import numpy as np
 from wolfpack import _core
 from wolfpack._checks import check_flag, check_index, check_int, check_seed, check_threads
 from wolfpack.config import apply_overrides, check_tree, load_params
-from wolfpack.task import task_params
 from wolfpack.opponents import Opponent, as_opponent, drivers, opponent_side
+from wolfpack.task import task_params
 
 LEARNERS = ("wolves", "targets", "all", "none")
 
@@ -59,9 +58,11 @@ def check_override_keywords(overrides: Mapping[str, Any]) -> None:
         also = f" (and {', '.join(repr(k) for k in unknown[1:])})" if len(unknown) > 1 else ""
         close = difflib.get_close_matches(dotted_keys({unknown[0]: None}).popitem()[0], [*_leaf_keys(known), *KEYWORD_ALIASES], n=3, cutoff=0.75)
         hint = f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
-        raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}{also}{hint}. A keyword names a params key, "
-                        f"with __ for the dots (world__wolves=8) or dotted (**{{'world.wolves': 8}}), or is one of "
-                        f"{', '.join(KEYWORD_ALIASES)}")
+        raise TypeError(
+            f"got an unexpected keyword argument {unknown[0]!r}{also}{hint}. A keyword names a params key, "
+            f"with __ for the dots (world__wolves=8) or dotted (**{{'world.wolves': 8}}), or is one of "
+            f"{', '.join(KEYWORD_ALIASES)}"
+        )
 
 
 def _leaf_keys(node: Mapping[str, Any], prefix: str = "") -> list[str]:
@@ -224,10 +225,7 @@ def _world_infos(code: int, caps: list, corners: list, energy: list, collisions:
     targets_in_range = slice(max(lo, n_wolves) - n_wolves, max(hi - n_wolves, 0))
     cap = [world_cap] * wolves_in_range + caps[targets_in_range]
     cornered = first_cornered_step(corners)
-    return [
-        {"outcome": code, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d}
-        for c, en, co, d in zip(cap, energy, collisions, distance)
-    ]
+    return [{"outcome": code, "capture_step": c, "cornered_step": cornered, "energy": en, "collisions": co, "distance": d} for c, en, co, d in zip(cap, energy, collisions, distance)]
 
 
 class ObservationSizeError(ValueError):
@@ -337,7 +335,9 @@ class BatchEnv:
         side = opponent_side(opponent, self.learners)
         ours = self.wolf_obs_dim if side == "wolves" else self.target_obs_dim
         if opponent.obs_dim != ours:
-            raise ObservationSizeError(f"opponent {opponent.name!r} takes {opponent.obs_dim} observations, but the {side} here have {ours} (other params, or an older observation layout)", opponent.obs_dim, ours)
+            raise ObservationSizeError(
+                f"opponent {opponent.name!r} takes {opponent.obs_dim} observations, but the {side} here have {ours} (other params, or an older observation layout)", opponent.obs_dim, ours
+            )
 
     def set_opponent(self, opponent: Any) -> None:
         """Swaps what drives the non-learning side from the next step on, keeping every world

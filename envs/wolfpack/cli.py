@@ -42,7 +42,19 @@ from wolfpack.task import TASK_ORDER, outcome_changes, task_params
 PROG = "wolfpack"
 EXIT_INPUT, EXIT_INTERNAL, EXIT_IO, EXIT_INTERRUPTED = 2, 3, 1, 130
 
-JSON_KEYS = ("episodes", "capture_rate", "collision_rate", "timeout_rate", "cornered_rate", "success_rate", "cornered_episodes", "median_capture_steps", "mean_energy", "env_steps_per_second", "total_steps")
+JSON_KEYS = (
+    "episodes",
+    "capture_rate",
+    "collision_rate",
+    "timeout_rate",
+    "cornered_rate",
+    "success_rate",
+    "cornered_episodes",
+    "median_capture_steps",
+    "mean_energy",
+    "env_steps_per_second",
+    "total_steps",
+)
 
 HUNT_DESCRIPTION = """\
 Run scripted episodes of the wolf-pack hunt and report how they ended.
@@ -207,53 +219,66 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train,benchmark,dataset}", parser_class=_Parser)
 
-    hunt = sub.add_parser("hunt", help="run scripted episodes; print a summary, write logs and plots",
-                          description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    hunt = sub.add_parser(
+        "hunt", help="run scripted episodes; print a summary, write logs and plots", description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     scenario = hunt.add_mutually_exclusive_group()
     scenario.add_argument("--params", metavar="P", help="scenario YAML (default: the packaged params.yaml); missing keys take their defaults")
-    scenario.add_argument("--task", metavar="NAME", choices=TASK_ORDER,
-                          help=f"a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}; --set changes it (a modified task)")
+    scenario.add_argument("--task", metavar="NAME", choices=TASK_ORDER, help=f"a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}; --set changes it (a modified task)")
     hunt.add_argument("--wolves", choices=("seed000", "bvc", "formation"), help="wolf law; sets policies.wolves (wins over --set)")
     hunt.add_argument("--targets", choices=("escape", "random", "still"), help="target law; sets policies.targets (wins over --set)")
     hunt.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=20, help="number of episodes (default: 20)")
     hunt.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="episode k uses seed S + k (default: 0)")
-    hunt.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
-                      help="override a parameter by its dotted key, value read as YAML, e.g. --set world.wolves=8 "
-                           "--set world.border=[-5,-5,5,5]; repeatable")
-    hunt.add_argument("--layout", metavar="FILE", help="start every episode from this explicit state (JSON, schema below); "
-                                                       "agent counts come from the layout")
-    hunt.add_argument("--out", metavar="DIR", type=_folder, help="write summary.json, per-episode trajectory.npz and plots under DIR "
-                                                   "(a new or empty folder, unless --force)")
-    hunt.add_argument("--force", action="store_true", help="with --out DIR holding an earlier run: replace that run's files "
-                                                           "(summary.json, summary.png, episode_*/) once this run has finished; "
-                                                           "other files are kept, and a run that fails or is interrupted leaves the earlier one as it was")
-    hunt.add_argument("--plots", metavar="N", type=_int_at_least(0), default=20,
-                      help="with --out, draw trajectory.png, curves.png and interaction.png (and with --video episode.mp4) for the first N episodes only (default: 20; "
-                           "0: none); summary.png is always written")
-    hunt.add_argument("--trajectories", metavar="N|all", type=_count_or_all, default=None,
-                      help="with --out, save trajectory.npz (what 'wolfpack replay' re-renders) for the first N episodes only (default: 20, or --plots when larger; "
-                           "'all': every episode, about 80 KB each in the documented scenario); summary.json covers every episode either way")
-    hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) "
-                                                           "for the episodes that get plots (--plots)")
+    hunt.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="override a parameter by its dotted key, value read as YAML, e.g. --set world.wolves=8 --set world.border=[-5,-5,5,5]; repeatable",
+    )
+    hunt.add_argument("--layout", metavar="FILE", help="start every episode from this explicit state (JSON, schema below); agent counts come from the layout")
+    hunt.add_argument("--out", metavar="DIR", type=_folder, help="write summary.json, per-episode trajectory.npz and plots under DIR (a new or empty folder, unless --force)")
+    hunt.add_argument(
+        "--force",
+        action="store_true",
+        help="with --out DIR holding an earlier run: replace that run's files "
+        "(summary.json, summary.png, episode_*/) once this run has finished; "
+        "other files are kept, and a run that fails or is interrupted leaves the earlier one as it was",
+    )
+    hunt.add_argument(
+        "--plots",
+        metavar="N",
+        type=_int_at_least(0),
+        default=20,
+        help="with --out, draw trajectory.png, curves.png and interaction.png (and with --video episode.mp4) for the first N episodes only (default: 20; 0: none); summary.png is always written",
+    )
+    hunt.add_argument(
+        "--trajectories",
+        metavar="N|all",
+        type=_count_or_all,
+        default=None,
+        help="with --out, save trajectory.npz (what 'wolfpack replay' re-renders) for the first N episodes only (default: 20, or --plots when larger; "
+        "'all': every episode, about 80 KB each in the documented scenario); summary.json covers every episode either way",
+    )
+    hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) for the episodes that get plots (--plots)")
     hunt.add_argument("--json", action="store_true", help="print one JSON object (the summary) on stdout instead of a table")
-    hunt.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None,
-                      help=f"worker threads, 1 to {MAX_THREADS} (default: all cores); results do not depend on it")
+    hunt.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help=f"worker threads, 1 to {MAX_THREADS} (default: all cores); results do not depend on it")
     hunt.set_defaults(func=cmd_hunt)
 
-    replay = sub.add_parser("replay", help="re-render a saved episode (trajectory.npz) to video and plots without re-simulating",
-                            description=REPLAY_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    replay = sub.add_parser(
+        "replay", help="re-render a saved episode (trajectory.npz) to video and plots without re-simulating", description=REPLAY_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     replay.add_argument("episode", metavar="EPISODE_DIR", type=_folder, help="an episode folder of 'wolfpack hunt --out' (holding trajectory.npz), or the .npz itself")
     replay.add_argument("--out", metavar="DIR", type=_folder, help="where to write episode.mp4, trajectory.png, curves.png and interaction.png (default: EPISODE_DIR)")
     replay.add_argument("--no-video", action="store_true", help="no episode.mp4")
     replay.add_argument("--no-plots", action="store_true", help="no trajectory.png, curves.png, interaction.png")
-    replay.add_argument("--frames", metavar="T", type=_int_at_least(0), nargs="+", default=[],
-                        help="also write the frames of these steps as frame_TTT.png (a step past the end: the last frame)")
+    replay.add_argument("--frames", metavar="T", type=_int_at_least(0), nargs="+", default=[], help="also write the frames of these steps as frame_TTT.png (a step past the end: the last frame)")
     replay.add_argument("--size", metavar="PX", type=_int_at_least(16), default=512, help="video frame width and height in pixels (default: 512)")
     replay.add_argument("--trail", metavar="STEPS", type=_int_at_least(0), default=40, help="trail length in steps (default: 40)")
     replay.set_defaults(func=cmd_replay)
 
-    bench = sub.add_parser("bench", help="throughput of scripted stepping (env-steps/s)",
-                           description=BENCH_DESCRIPTION, epilog=BENCH_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    bench = sub.add_parser("bench", help="throughput of scripted stepping (env-steps/s)", description=BENCH_DESCRIPTION, epilog=BENCH_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     bench.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=64, help="episodes per measurement (default: 64)")
     bench.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help=f"the parallel measurement's thread count, 1 to {MAX_THREADS} (default: all cores)")
     bench.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="first episode seed (default: 0)")
@@ -444,8 +469,7 @@ class RunWriter:
                 raise
         self.count += 1
         if k < self.plots:
-            for name, plot in (("trajectory.png", self.plotting.plot_trajectory), ("curves.png", self.plotting.plot_curves),
-                               ("interaction.png", self.plotting.plot_interaction)):
+            for name, plot in (("trajectory.png", self.plotting.plot_trajectory), ("curves.png", self.plotting.plot_curves), ("interaction.png", self.plotting.plot_interaction)):
                 _CtrlC.check()
                 with logs.atomic_path(folder / name, keep_suffix=True) as tmp:
                     plot(arrays, tmp, label=f"episode {k}")
@@ -504,11 +528,13 @@ class RunDir:
         self._mark("it is still running, or it stopped before the end (interrupted or failed)")
 
     def _mark(self, state: str) -> None:
-        text = (f"This wolfpack hunt run is INCOMPLETE: {state}.\n"
-                f"command: {shlex.join(self.command)}\n"
-                f"started: {self.started}\n"
-                "summary.json is written, and this file removed, only when every episode has finished. "
-                "Every trajectory.npz here is complete and readable.\n")
+        text = (
+            f"This wolfpack hunt run is INCOMPLETE: {state}.\n"
+            f"command: {shlex.join(self.command)}\n"
+            f"started: {self.started}\n"
+            "summary.json is written, and this file removed, only when every episode has finished. "
+            "Every trajectory.npz here is complete and readable.\n"
+        )
         with logs.atomic_path(self.work / logs.INCOMPLETE_NAME) as tmp:
             tmp.write_text(text, encoding="utf-8")
 
@@ -599,8 +625,7 @@ def _warn_if_large(args, resolved: dict) -> None:
     files = kept_trajectories(args)
     total = files * each
     if total > 1e9:
-        print(f"{PROG}: note: --out keeps {files:,} trajectory.npz files, about {total / 1e9:.1f} GB "
-              f"(~{each / 1e3:.0f} KB each); --trajectories N keeps fewer", file=sys.stderr)
+        print(f"{PROG}: note: --out keeps {files:,} trajectory.npz files, about {total / 1e9:.1f} GB (~{each / 1e3:.0f} KB each); --trajectories N keeps fewer", file=sys.stderr)
 
 
 def simulate(args, params, layout, on_result: Callable[[int, dict], None], details: list | None = None, recorded: int = 0) -> tuple[RunningSummary, float]:
@@ -641,8 +666,7 @@ def _table(summary: dict, args, resolved: dict) -> str:
     w = resolved["world"]
     task = f"task {args.task}{' (modified)' if outcome_changes(_overrides(args)) else ''}: " if getattr(args, "task", None) else ""
     lines = [
-        f"{task}{n} episodes, seeds {args.seed}..{args.seed + n - 1}: {w['wolves']} {pol['wolves']} wolves vs "
-        f"{w['targets']} {pol['targets']} target(s), at most {w['max_steps']} steps",
+        f"{task}{n} episodes, seeds {args.seed}..{args.seed + n - 1}: {w['wolves']} {pol['wolves']} wolves vs {w['targets']} {pol['targets']} target(s), at most {w['max_steps']} steps",
     ]
     keys = ("captured", "cornered", "collision", "timeout") if resolved["capture"]["cornered"] else ("captured", "collision", "timeout")
     for key in keys:
@@ -678,8 +702,7 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
         details: list[dict] = []
         tally, seconds = simulate(args, params, layout, writer.episode, details, recorded=writer.recorded)
         summary = tally.summary(seconds)
-        full = {**summary, "task": args.task, "params": resolved, "seed": args.seed, "layout": layout,
-                "command": [PROG, *argv], "episodes_detail": details}
+        full = {**summary, "task": args.task, "params": resolved, "seed": args.seed, "layout": layout, "command": [PROG, *argv], "episodes_detail": details}
         writer.plot_summary(full)
         with _sigint_held():  # summary.json and the swap into DIR: all or nothing
             writer.write_summary(full)
@@ -794,8 +817,7 @@ def cmd_bench(args: argparse.Namespace, argv: Sequence[str]) -> None:
         results = run_episodes(params, args.episodes, args.seed, threads=threads)
         seconds = time.perf_counter() - t0
         steps = sum(int(r["steps"]) for r in results)
-        rows.append({"threads": threads, "episodes": args.episodes, "env_steps": steps, "seconds": seconds,
-                     "env_steps_per_second": steps / seconds, "episodes_per_second": args.episodes / seconds})
+        rows.append({"threads": threads, "episodes": args.episodes, "env_steps": steps, "seconds": seconds, "env_steps_per_second": steps / seconds, "episodes_per_second": args.episodes / seconds})
     batch = [_bench_batch(args.num_envs, args.batch_steps, threads, args.seed) for threads in dict.fromkeys((1, args.threads or _cores()))]
     report = {"scenario": "documented (params.yaml)", "what": "scripted episodes, nothing recorded", "runs": rows, "batch": batch}
     if args.json:
@@ -823,8 +845,7 @@ def _bench_batch(num_envs: int, steps: int, threads: int, seed: int) -> dict:
     for actions in _CtrlC.checked(plan):
         env.step(actions)
     seconds = time.perf_counter() - t0
-    return {"threads": threads, "num_envs": num_envs, "steps": steps, "env_steps": steps * num_envs, "seconds": seconds,
-            "env_steps_per_second": steps * num_envs / seconds}
+    return {"threads": threads, "num_envs": num_envs, "steps": steps, "env_steps": steps * num_envs, "seconds": seconds, "env_steps_per_second": steps * num_envs / seconds}
 
 
 # --- entry point --------------------------------------------------------------------------

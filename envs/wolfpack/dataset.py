@@ -89,8 +89,9 @@ def params_for(task: str, driver: Opponent, side: str) -> dict:
     return params
 
 
-def collect(task: str, policy: Any, side: str, *, episodes: int, seed: int = 0, threads: int | None = None, both_sides: bool = True,
-            progress: Callable[[int], None] | None = None) -> dict[str, np.ndarray]:
+def collect(
+    task: str, policy: Any, side: str, *, episodes: int, seed: int = 0, threads: int | None = None, both_sides: bool = True, progress: Callable[[int], None] | None = None
+) -> dict[str, np.ndarray]:
     """Plays ``episodes`` episodes of ``task`` with ``policy`` on ``side`` and returns the
     arrays of :data:`NPZ_KEYS`. ``both_sides``: the other side acts through the action
     interface too (its law's expert actions), so that its observations and actions are
@@ -146,10 +147,7 @@ def _collect_chunk(params: dict, driver: Opponent, side: str, count: int, seed: 
         running &= ~ended
     stacked = {k: np.stack(v, axis=1) for k, v in rows.items()}  # [E, T, ...]
     outcome = out["outcome"]
-    return [
-        {**{k: v[e, : length[e]] for k, v in stacked.items()}, **{f"final_obs_{s}": final[s][e] for s in sides}, "outcome": int(outcome[e])}
-        for e in range(count)
-    ]
+    return [{**{k: v[e, : length[e]] for k, v in stacked.items()}, **{f"final_obs_{s}": final[s][e] for s in sides}, "outcome": int(outcome[e])} for e in range(count)]
 
 
 def upper_bound_bytes(task: str, episodes: int) -> int:
@@ -186,8 +184,7 @@ def episodes(arrays: dict[str, np.ndarray]) -> Iterator[dict[str, np.ndarray]]:
     per_step = [k for k in arrays if k not in ("episode_offsets", "seeds", "outcome", *finals)]
     for k in range(len(offsets) - 1):
         a, b = offsets[k], offsets[k + 1]
-        yield {**{key: arrays[key][a:b] for key in per_step}, **{key: arrays[key][k] for key in finals},
-               "seed": int(arrays["seeds"][k]), "outcome": OUTCOMES[int(arrays["outcome"][k])]}
+        yield {**{key: arrays[key][a:b] for key in per_step}, **{key: arrays[key][k] for key in finals}, "seed": int(arrays["seeds"][k]), "outcome": OUTCOMES[int(arrays["outcome"][k])]}
 
 
 def minari_id(task: str, policy_name: str) -> str:
@@ -207,8 +204,17 @@ def write_minari(arrays: dict[str, np.ndarray], task: str, out: Path, dataset_id
     buffers = []
     for k, ep in enumerate(episodes(arrays)):
         obs = np.concatenate([ep["obs_targets"][:, 0], ep["final_obs_targets"][None, 0]])
-        buffers.append(EpisodeBuffer(id=k, seed=ep["seed"], observations=obs, actions=ep["actions_targets"][:, 0], rewards=list(ep["rewards_targets"][:, 0].astype(float)),
-                                     terminations=list(ep["terminated"].astype(bool)), truncations=list(ep["truncated"].astype(bool))))
+        buffers.append(
+            EpisodeBuffer(
+                id=k,
+                seed=ep["seed"],
+                observations=obs,
+                actions=ep["actions_targets"][:, 0],
+                rewards=list(ep["rewards_targets"][:, 0].astype(float)),
+                terminations=list(ep["terminated"].astype(bool)),
+                truncations=list(ep["truncated"].astype(bool)),
+            )
+        )
     before = os.environ.get("MINARI_DATASETS_PATH")
     os.environ["MINARI_DATASETS_PATH"] = str(out.resolve())  # where Minari writes
     try:
@@ -226,14 +232,31 @@ def _create(minari, dataset_id: str, buffers: list, task: str, meta: dict):
         # command and dataset.json the versions instead.
         warnings.filterwarnings("ignore", message=r"`(code_permalink|author_email)` is set to None", category=UserWarning)
         return minari.create_dataset_from_buffers(
-            dataset_id, buffers, env=gym_id(task), eval_env=gym_id(task), algorithm_name=meta["policy"],
+            dataset_id,
+            buffers,
+            env=gym_id(task),
+            eval_env=gym_id(task),
+            algorithm_name=meta["policy"],
             description=f"{meta['policy']} as the target on wolfpack task {task}, against its scripted wolves; episodes {meta['seed']}..{meta['seed'] + meta['episodes'] - 1}. Made by: {meta['command']}",
-            data_format="hdf5", author="wolfpack dataset",
+            data_format="hdf5",
+            author="wolfpack dataset",
         )
 
 
-def make(task: str, policy: Any, out: str | Path, *, side: str | None = None, episodes: int, seed: int = 0, fmt: str = "auto", threads: int | None = None,
-         command: str = "", progress: Callable[[int], None] | None = None, force: bool = False) -> dict:
+def make(
+    task: str,
+    policy: Any,
+    out: str | Path,
+    *,
+    side: str | None = None,
+    episodes: int,
+    seed: int = 0,
+    fmt: str = "auto",
+    threads: int | None = None,
+    command: str = "",
+    progress: Callable[[int], None] | None = None,
+    force: bool = False,
+) -> dict:
     """Collects and writes a dataset into ``out`` (a new or empty folder), then
     ``out/dataset.json`` (last: a folder without it is unfinished), and returns what it says:
     task, policy, side, episodes, seed, steps, outcomes, format, collect and write seconds,
@@ -270,15 +293,21 @@ def make(task: str, policy: Any, out: str | Path, *, side: str | None = None, ep
     return meta
 
 
-def _make_into(out: Path, task: str, driver, side: str, episodes: int, seed: int, fmt: str, threads: int | None,
-               command: str, progress: Callable[[int], None] | None) -> dict:
+def _make_into(out: Path, task: str, driver, side: str, episodes: int, seed: int, fmt: str, threads: int | None, command: str, progress: Callable[[int], None] | None) -> dict:
     """:func:`make`'s work, into ``out`` (new or empty)."""
     started = time.perf_counter()
     arrays = collect(task, driver, side, episodes=episodes, seed=seed, threads=threads, both_sides=fmt == "npz", progress=progress)
     collected = time.perf_counter() - started
-    meta = {"task": task, "policy": driver.name, "side": side, "episodes": episodes, "seed": seed, "steps": int(arrays["episode_offsets"][-1]),
-            "outcomes": {name: int((arrays["outcome"] == code).sum()) for code, name in enumerate(OUTCOMES) if (arrays["outcome"] == code).any()},
-            "command": command}
+    meta = {
+        "task": task,
+        "policy": driver.name,
+        "side": side,
+        "episodes": episodes,
+        "seed": seed,
+        "steps": int(arrays["episode_offsets"][-1]),
+        "outcomes": {name: int((arrays["outcome"] == code).sum()) for code, name in enumerate(OUTCOMES) if (arrays["outcome"] == code).any()},
+        "command": command,
+    }
     if fmt == "npz":
         write_npz(arrays, out)
         meta["arrays"] = NPZ_KEYS
@@ -286,7 +315,12 @@ def _make_into(out: Path, task: str, driver, side: str, episodes: int, seed: int
         meta["minari_id"] = minari_id(task, driver.name)
         write_minari(arrays, task, out, meta["minari_id"], meta)
     paths = sorted(p for p in out.rglob("*") if p.is_file())
-    meta.update(format=fmt, collect_s=round(collected, 2), write_s=round(time.perf_counter() - started - collected, 2),
-                files=[str(p.relative_to(out)) for p in paths], bytes=sum(p.stat().st_size for p in paths))
+    meta.update(
+        format=fmt,
+        collect_s=round(collected, 2),
+        write_s=round(time.perf_counter() - started - collected, 2),
+        files=[str(p.relative_to(out)) for p in paths],
+        bytes=sum(p.stat().st_size for p in paths),
+    )
     (out / "dataset.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
     return meta

@@ -38,8 +38,13 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     """Registers ``dataset`` on the ``wolfpack`` command's subparsers."""
     from wolfpack.cli import MAX_THREADS, _folder, _int_at_least
 
-    p = sub.add_parser("dataset", help="record a law's or a model's play on a task as an offline dataset (Minari or npz)",
-                       description=DATASET_DESCRIPTION, epilog=DATASET_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "dataset",
+        help="record a law's or a model's play on a task as an offline dataset (Minari or npz)",
+        description=DATASET_DESCRIPTION,
+        epilog=DATASET_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--task", required=True, metavar="NAME", choices=TASK_ORDER, help=f"the task: {', '.join(TASK_ORDER)}")
     p.add_argument("--policy", required=True, metavar="LAW_OR_MODEL", help="a law's name or a saved model")
     p.add_argument("--side", choices=("wolves", "targets"), default=None, help="the side the policy plays (default: the law's or the model's)")
@@ -62,15 +67,17 @@ def cmd_dataset(args: argparse.Namespace, argv: Sequence[str]) -> None:
     command = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
     most = dataset.upper_bound_bytes(args.task, args.episodes)
     if most > 1e9:
-        print(f"wolfpack: note: {args.episodes:,} episodes of {args.task} take up to {most / 1e9:.1f} GB (all of it in memory while recording; "
-              f"episodes that end sooner take less)", file=sys.stderr)
+        print(f"wolfpack: note: {args.episodes:,} episodes of {args.task} take up to {most / 1e9:.1f} GB (all of it in memory while recording; episodes that end sooner take less)", file=sys.stderr)
     with tqdm(total=args.episodes, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{args.policy} on {args.task}") as bar:
-        meta = dataset.make(args.task, args.policy, args.out, side=args.side, episodes=args.episodes, seed=args.seed, fmt=args.fmt, threads=args.threads,
-                            command=command, progress=bar.update, force=args.force)
+        meta = dataset.make(
+            args.task, args.policy, args.out, side=args.side, episodes=args.episodes, seed=args.seed, fmt=args.fmt, threads=args.threads, command=command, progress=bar.update, force=args.force
+        )
     if args.json:
         print(json.dumps(meta))
         return
     where = f"Minari dataset {meta['minari_id']} under {args.out} (MINARI_DATASETS_PATH={args.out})" if meta["format"] == "minari" else f"{args.out}/trajectories.npz"
     outcomes = ", ".join(f"{n} {c}" for n, c in meta["outcomes"].items())
-    print(f"{meta['episodes']} episodes ({meta['steps']:,} steps; {outcomes}) of {meta['policy']} as the {meta['side']} on {meta['task']}: "
-          f"{where}, {meta['bytes'] / 1e6:.1f} MB; collected in {meta['collect_s']:.1f} s, written in {meta['write_s']:.1f} s")
+    print(
+        f"{meta['episodes']} episodes ({meta['steps']:,} steps; {outcomes}) of {meta['policy']} as the {meta['side']} on {meta['task']}: "
+        f"{where}, {meta['bytes'] / 1e6:.1f} MB; collected in {meta['collect_s']:.1f} s, written in {meta['write_s']:.1f} s"
+    )

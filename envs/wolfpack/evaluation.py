@@ -141,5 +141,3 @@ def report(results: list[dict], wolves: str, targets: str) -> dict:
         "median_final_target_wall_distance": float(statistics.median(r["target_wall_distance"] for r in results)) if n else None,
         "capture_steps": captured,
     }
-
-

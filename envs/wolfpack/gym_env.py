@@ -45,7 +45,17 @@ class EscapeEnv(gymnasium.Env):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
 
-    def __init__(self, params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, opponent: Any = None, **overrides: Any) -> None:
+    def __init__(
+        self,
+        params: str | Path | Mapping[str, Any] | None = None,
+        *,
+        task: str | None = None,
+        render_mode: str | None = None,
+        render_options: Mapping[str, Any] | None = None,
+        seed: int = 0,
+        opponent: Any = None,
+        **overrides: Any,
+    ) -> None:
         self._init_kwargs = dict(params=params, task=task, render_mode=render_mode, render_options=render_options, seed=seed, opponent=opponent, **overrides)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
         frame_options = FrameOptions(**check_render_options(render_options))
@@ -114,4 +124,3 @@ class EscapeEnv(gymnasium.Env):
 
     def close(self) -> None:
         self._view.close()
-

@@ -140,8 +140,7 @@ def load_trajectory(path: Path) -> dict[str, np.ndarray]:
 
 #: The arrays ``wolfpack replay`` needs (older files may lack target_capture_step and
 #: cornered_step; seed is not drawn).
-REQUIRED_KEYS = ("wolves", "targets", "energy", "interaction", "outcome", "capture_step", "obstacle_poses", "obstacle_kind",
-                 "obstacle_radius", "obstacle_vertices", "border", "ts", "capture_distance")
+REQUIRED_KEYS = ("wolves", "targets", "energy", "interaction", "outcome", "capture_step", "obstacle_poses", "obstacle_kind", "obstacle_radius", "obstacle_vertices", "border", "ts", "capture_distance")
 OBSTACLE_KINDS = ("static_circle", "moving_circle", "static_polygon", "moving_polygon")
 
 

@@ -126,6 +126,7 @@ from pettingzoo import ParallelEnv
 from wolfpack.batch import BatchEnv, SharedObservation, agent_infos, check_action, check_shared_space, rebuild
 from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
 
+
 def action_box() -> spaces.Box:
     """A new action space (each agent and env gets its own, so that seeding one space's
     sampler does not reseed another's)."""
@@ -179,7 +180,9 @@ class WolfpackParallelEnv(ParallelEnv):
         opponent: Any = None,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, task=task, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
+        self._init_kwargs = dict(
+            params=params, task=task, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides
+        )
         self.shared_space = check_shared_space(shared_space, learners)
         self.render_mode = check_render_mode(render_mode, tuple(self.metadata["render_modes"]))
         frame_options = FrameOptions(**check_render_options(render_options))
@@ -349,11 +352,20 @@ class WolfpackParallelEnv(ParallelEnv):
         self._view.close()
 
 
-
-def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, opponent: Any = None, **overrides: Any) -> WolfpackParallelEnv:
+def parallel_env(
+    params: str | Path | Mapping[str, Any] | None = None,
+    *,
+    task: str | None = None,
+    learners: str = "wolves",
+    render_mode: str | None = None,
+    render_options: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    shared_space: bool = False,
+    opponent: Any = None,
+    **overrides: Any,
+) -> WolfpackParallelEnv:
     """A PettingZoo ``ParallelEnv`` of one world (see this module's docstring)."""
     return WolfpackParallelEnv(params, task=task, learners=learners, render_mode=render_mode, render_options=render_options, seed=seed, shared_space=shared_space, opponent=opponent, **overrides)
-
 
 
 # ``wolfpack.parallel_env`` (this function) hides the module of the same name in the package:
@@ -361,7 +373,18 @@ def parallel_env(params: str | Path | Mapping[str, Any] | None = None, *, task: 
 parallel_env.__doc__ = f"{parallel_env.__doc__}\n\n{__doc__}"
 
 
-def env(params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, learners: str = "wolves", render_mode: str | None = None, render_options: Mapping[str, Any] | None = None, seed: int = 0, shared_space: bool = False, opponent: Any = None, **overrides: Any):
+def env(
+    params: str | Path | Mapping[str, Any] | None = None,
+    *,
+    task: str | None = None,
+    learners: str = "wolves",
+    render_mode: str | None = None,
+    render_options: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    shared_space: bool = False,
+    opponent: Any = None,
+    **overrides: Any,
+):
     """The same world as a PettingZoo ``AECEnv`` (agents act in turn; the world steps once all
     active agents have acted): PettingZoo's ``parallel_to_aec`` over :func:`parallel_env`, with
     the same arguments, spaces, ``state()`` and ``state_space``."""

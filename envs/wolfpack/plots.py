@@ -12,16 +12,15 @@ from collections import Counter
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+# Figure.savefig imports the Agg backend (a C extension) at its first call; importing it here
+# moves that cost, and the window in which a Ctrl-C turns into "ImportError: initialization
+# failed" inside the extension's initialisation, to start-up instead of the middle of a run.
+import matplotlib.backends.backend_agg  # noqa: F401
 import numpy as np
 from matplotlib.collections import PatchCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon, Rectangle
 from matplotlib.ticker import MaxNLocator
-
-# Figure.savefig imports the Agg backend (a C extension) at its first call; importing it here
-# moves that cost, and the window in which a Ctrl-C turns into "ImportError: initialization
-# failed" inside the extension's initialisation, to start-up instead of the middle of a run.
-import matplotlib.backends.backend_agg  # noqa: F401
 
 OUTCOMES = ("captured", "cornered", "collision", "timeout")
 _OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
@@ -49,6 +48,8 @@ def _legend_outside(ax, **kw) -> None:
     """A legend to the right of the axes, never over the data."""
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=7, **kw)
+
+
 _DPI = 100
 
 
@@ -65,10 +66,7 @@ def obstacle_outline(kind: str, radius: float, local: np.ndarray, pose: np.ndarr
 
 
 def _obstacles(ax, a: Mapping[str, np.ndarray], row: int, **style) -> None:
-    patches = [
-        obstacle_outline(str(kind), float(r), local, pose)
-        for kind, r, local, pose in zip(a["obstacle_kind"], a["obstacle_radius"], a["obstacle_vertices"], a["obstacle_poses"][row])
-    ]
+    patches = [obstacle_outline(str(kind), float(r), local, pose) for kind, r, local, pose in zip(a["obstacle_kind"], a["obstacle_radius"], a["obstacle_vertices"], a["obstacle_poses"][row])]
     if patches:
         ax.add_collection(PatchCollection(patches, **style))
 
@@ -171,9 +169,16 @@ def plot_interaction(a: Mapping[str, np.ndarray], path: Path, label: str = "epis
         ax_map.imshow(image, aspect="auto", interpolation="nearest", cmap="Greys", vmin=0, vmax=1, extent=(0.5, inter.shape[0] + 0.5, len(pairs) - 0.5, -0.5))
         ax_map.set_yticks(range(len(pairs)), [f"{names[i]}→{names[j]}" for i, j in pairs], fontsize=6)
         # The key: what a dark cell means, and how the rows are named.
-        ax_map.legend(handles=[Rectangle((0, 0), 1, 1, facecolor="black"), Rectangle((0, 0), 1, 1, facecolor="white", edgecolor="0.6")],
-                      labels=["linked this step", "not linked"], title="wN = wolf N, t = target;\nrow a→b: a sensed or used b",
-                      loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=7, title_fontsize=7)
+        ax_map.legend(
+            handles=[Rectangle((0, 0), 1, 1, facecolor="black"), Rectangle((0, 0), 1, 1, facecolor="white", edgecolor="0.6")],
+            labels=["linked this step", "not linked"],
+            title="wN = wolf N, t = target;\nrow a→b: a sensed or used b",
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            borderaxespad=0.0,
+            fontsize=7,
+            title_fontsize=7,
+        )
     else:
         ax_map.text(0.5, 0.5, "no interactions", ha="center", va="center", transform=ax_map.transAxes)
     ax_map.set_title(_title(a, label) + "\ninteraction graph (observer → observed)", fontsize=10)

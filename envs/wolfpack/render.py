@@ -111,11 +111,20 @@ class LiveRenderer:
             raise ValueError("render() before reset(): there is no world to draw yet")
         s = self._state
         obstacles = [
-            {"kind": o["kind"], "moving": bool(o["moving"]), "center": [float(v) for v in o["center"]], "angle": float(o["angle"]), "radius": float(o["radius"]), "local": np.asarray(o["local"], dtype=np.float64).tolist()}
+            {
+                "kind": o["kind"],
+                "moving": bool(o["moving"]),
+                "center": [float(v) for v in o["center"]],
+                "angle": float(o["angle"]),
+                "radius": float(o["radius"]),
+                "local": np.asarray(o["local"], dtype=np.float64).tolist(),
+            }
             for o in s["obstacles"]
         ]
-        history = list(self._positions)[-(self.opts.trail + 1):] if self.opts.trail > 0 else []
-        scene = _scene(self.params, self.params["world"]["border"], s["wolves"], s["targets"], s["captured"], obstacles, _trails(history), s["interaction"] if s["step"] > 0 else None, s["step"], self.opts)
+        history = list(self._positions)[-(self.opts.trail + 1) :] if self.opts.trail > 0 else []
+        scene = _scene(
+            self.params, self.params["world"]["border"], s["wolves"], s["targets"], s["captured"], obstacles, _trails(history), s["interaction"] if s["step"] > 0 else None, s["step"], self.opts
+        )
         return _draw(scene, self.opts)
 
 
@@ -137,10 +146,17 @@ def trajectory_frames(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any
     positions = np.concatenate([wolves[:, :, :2], targets[:, :, :2]], axis=1)
     for t in range(rows):
         obstacles = [
-            {"kind": "circle" if kinds[k].endswith("circle") else "polygon", "moving": kinds[k].startswith("moving"), "center": poses[t, k, :2].tolist(), "angle": float(poses[t, k, 2]), "radius": float(radius[k]), "local": local[k]}
+            {
+                "kind": "circle" if kinds[k].endswith("circle") else "polygon",
+                "moving": kinds[k].startswith("moving"),
+                "center": poses[t, k, :2].tolist(),
+                "angle": float(poses[t, k, 2]),
+                "radius": float(radius[k]),
+                "local": local[k],
+            }
             for k in range(len(kinds))
         ]
-        history = list(positions[max(0, t - opts.trail): t + 1]) if opts.trail > 0 else []
+        history = list(positions[max(0, t - opts.trail) : t + 1]) if opts.trail > 0 else []
         captured = [0 <= end <= t for end in ended_at]
         scene = _scene(scene_params, arrays["border"], wolves[t], targets[t], captured, obstacles, _trails(history), interaction[t - 1] if t > 0 else None, t, opts)
         yield _draw(scene, opts)
@@ -217,8 +233,9 @@ class EnvRendering:
 
         if plt.get_backend().lower() in NON_INTERACTIVE_BACKENDS:
             # matplotlib could not start a GUI backend (no reachable X server, no tkinter/Qt)
-            self._warn_once(f"render_mode='human': matplotlib has no window backend here (it chose {plt.get_backend()!r}), nothing is shown; "
-                            "set MPLBACKEND=TkAgg or QtAgg, or use render_mode='rgb_array'")
+            self._warn_once(
+                f"render_mode='human': matplotlib has no window backend here (it chose {plt.get_backend()!r}), nothing is shown; set MPLBACKEND=TkAgg or QtAgg, or use render_mode='rgb_array'"
+            )
             return
 
         if self._window is None:

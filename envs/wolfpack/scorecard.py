@@ -66,8 +66,17 @@ def as_policy(policy: Any, side: str) -> Opponent:
     return Opponent(policy, side=side, deterministic=True)
 
 
-def score_task(policy: Opponent, side: str, task: str, *, episodes: int = DEFAULT_EPISODES, seed: int = HELD_OUT_SEED,
-               threads: int | None = None, progress: Callable[[int], None] | None = None, overrides: Mapping[str, Any] | None = None) -> dict:
+def score_task(
+    policy: Opponent,
+    side: str,
+    task: str,
+    *,
+    episodes: int = DEFAULT_EPISODES,
+    seed: int = HELD_OUT_SEED,
+    threads: int | None = None,
+    progress: Callable[[int], None] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> dict:
     """``policy`` driving ``side`` on ``task`` (with ``overrides`` on top): the evaluation report
     (:func:`wolfpack.evaluation.report`) with ``score`` and ``score_ci95`` added, or
     ``{"skipped": reason}`` when its observation size does not fit the task."""
@@ -113,8 +122,7 @@ def _add_learned(base: dict, learned: dict) -> None:
     if (learned.get("episodes"), learned.get("first_seed")) != (base.get("episodes"), base.get("first_seed")):
         return
     for name, spec in learned.get("learners", {}).items():
-        tasks = {task: {"score": row[name]["iqm"], "score_ci95": row[name]["ci95"], "seeds": row[name]["n"]}
-                 for task, row in learned.get("summary", {}).items() if name in row}
+        tasks = {task: {"score": row[name]["iqm"], "score_ci95": row[name]["ci95"], "seeds": row[name]["n"]} for task, row in learned.get("summary", {}).items() if name in row}
         if tasks:
             base.setdefault(spec["side"], {})[name] = {"kind": "learned", "tasks": tasks}
 
@@ -124,9 +132,18 @@ def rank(score: float, others: Sequence[float]) -> int:
     return 1 + sum(1 for s in others if s > score)
 
 
-def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, episodes: int = DEFAULT_EPISODES, seed: int = HELD_OUT_SEED,
-              threads: int | None = None, baselines: dict | None = None, progress: Callable[[int], None] | None = None,
-              overrides: Mapping[str, Any] | None = None) -> dict:
+def scorecard(
+    policy: Any,
+    side: str,
+    *,
+    tasks: Sequence[str] | None = None,
+    episodes: int = DEFAULT_EPISODES,
+    seed: int = HELD_OUT_SEED,
+    threads: int | None = None,
+    baselines: dict | None = None,
+    progress: Callable[[int], None] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> dict:
     """Plays ``policy`` as ``side`` on ``tasks`` (default: every task), each with ``overrides``
     on top, and ranks it against ``baselines`` (default: the committed ones) where they were
     measured on the same episodes of the same tasks (never with overrides). Returns the
@@ -146,8 +163,7 @@ def scorecard(policy: Any, side: str, *, tasks: Sequence[str] | None = None, epi
     for task in tasks:
         row = score_task(driver, side, task, episodes=episodes, seed=seed, threads=threads, progress=progress, overrides=overrides)
         if "score" in row:
-            theirs = {name: entry["tasks"][task]["score"] for name, entry in baselines.get(side, {}).items()
-                      if comparable and task in entry.get("tasks", {}) and "score" in entry["tasks"][task]}
+            theirs = {name: entry["tasks"][task]["score"] for name, entry in baselines.get(side, {}).items() if comparable and task in entry.get("tasks", {}) and "score" in entry["tasks"][task]}
             theirs.pop(driver.name, None)  # a baseline is not ranked against itself
             row["baselines"] = theirs
             row["rank"] = rank(row["score"], list(theirs.values())) if theirs else None
@@ -202,10 +218,13 @@ def markdown(card: dict) -> str:
         *_overrides_lines(card.get("overrides") or {}),
         f"{card['episodes']} deterministic episodes per task (seeds {card['first_seed']}..{card['first_seed'] + card['episodes'] - 1}), "
         f"against each task's scripted {other}; score = {verb}, with its 95 % Wilson interval. "
-        + ("Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the "
-           "interquartile mean of their training seeds)." if card["ranked_against"]
-           else "No ranks: the committed baselines played other tasks." if card.get("overrides")
-           else "No committed baselines for these episodes: no ranks."),
+        + (
+            "Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the interquartile mean of their training seeds)."
+            if card["ranked_against"]
+            else "No ranks: the committed baselines played other tasks."
+            if card.get("overrides")
+            else "No committed baselines for these episodes: no ranks."
+        ),
         "",
         f"| task | {verb} (95 % interval) | {COLLISIONS_HEADER[side]} | timeouts | rank | best baseline |",
         "|---|---|---:|---:|---:|---|",
@@ -219,8 +238,7 @@ def markdown(card: dict) -> str:
         rank_text = f"{row['rank']} of {row['ranked_among']}" if row.get("rank") else "—"
         best_text = f"{best[0]} {100 * best[1]:.1f} %" if best else "—"
         collisions = row["collision_rate"] if side == "wolves" else row["target_collision_rate"]
-        lines.append(f"| `{task}` | **{100 * row['score']:.1f} %** ({100 * lo:.1f}–{100 * hi:.1f}) | {100 * collisions:.1f} % | "
-                     f"{100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
+        lines.append(f"| `{task}` | **{100 * row['score']:.1f} %** ({100 * lo:.1f}–{100 * hi:.1f}) | {100 * collisions:.1f} % | {100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
     lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
     return "\n".join(lines)
 
@@ -231,8 +249,11 @@ def _overrides_lines(overrides: Mapping[str, Any]) -> list[str]:
         return []
     given = ", ".join(f"`{k}={v}`" for k, v in overrides.items())
     changed = outcome_changes(overrides)
-    what = (f"**Modified tasks**: {', '.join(f'`{k}`' for k in changed)} change{'s' if len(changed) == 1 else ''} the world or its rules"
-            if changed else "None of them changes the world or its rules (they set what a learner observes or is paid, or who plays)")
+    what = (
+        f"**Modified tasks**: {', '.join(f'`{k}`' for k in changed)} change{'s' if len(changed) == 1 else ''} the world or its rules"
+        if changed
+        else "None of them changes the world or its rules (they set what a learner observes or is paid, or who plays)"
+    )
     return [f"Every task played with {given}. {what}.", ""]
 
 
@@ -259,14 +280,22 @@ def figure(card: dict, path: str | Path) -> None:
     for k, name in enumerate(names):
         ys = [i for i, t in enumerate(tasks) if name in card["tasks"][t].get("baselines", {})]
         xs = [100 * card["tasks"][tasks[i]]["baselines"][name] for i in ys]
-        ax.scatter(xs, [y + 0.18 for y in ys], marker=markers[k % len(markers)], s=28, color="0.55", edgecolor="0.25", linewidth=0.5,
-                   label=f"{name} ({_KIND_LABEL.get(card.get('baseline_kinds', {}).get(name), 'baseline')})", zorder=2)
+        ax.scatter(
+            xs,
+            [y + 0.18 for y in ys],
+            marker=markers[k % len(markers)],
+            s=28,
+            color="0.55",
+            edgecolor="0.25",
+            linewidth=0.5,
+            label=f"{name} ({_KIND_LABEL.get(card.get('baseline_kinds', {}).get(name), 'baseline')})",
+            zorder=2,
+        )
     played = [i for i, t in enumerate(tasks) if "score" in card["tasks"][t]]
     xs = [100 * card["tasks"][tasks[i]]["score"] for i in played]
     lo = [x - 100 * card["tasks"][tasks[i]]["score_ci95"][0] for x, i in zip(xs, played)]
     hi = [100 * card["tasks"][tasks[i]]["score_ci95"][1] - x for x, i in zip(xs, played)]
-    ax.errorbar(xs, [y - 0.1 for y in played], xerr=[lo, hi], fmt="o", color="tab:blue", ecolor="tab:blue", capsize=3, markersize=6,
-                label=f"{card['policy']} (95 % interval)", zorder=3)
+    ax.errorbar(xs, [y - 0.1 for y in played], xerr=[lo, hi], fmt="o", color="tab:blue", ecolor="tab:blue", capsize=3, markersize=6, label=f"{card['policy']} (95 % interval)", zorder=3)
     for i, t in enumerate(tasks):
         if "skipped" in card["tasks"][t]:
             ax.text(1, i, "skipped: other observation size", va="center", fontsize=8, color="0.4")

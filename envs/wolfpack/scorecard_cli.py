@@ -43,16 +43,27 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     """Registers ``benchmark`` on the ``wolfpack`` command's subparsers."""
     from wolfpack.cli import MAX_THREADS, _folder, _int_at_least
 
-    p = sub.add_parser("benchmark", help="score a policy on every task of the benchmark suite against the baselines",
-                       description=BENCHMARK_DESCRIPTION, epilog=BENCHMARK_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "benchmark",
+        help="score a policy on every task of the benchmark suite against the baselines",
+        description=BENCHMARK_DESCRIPTION,
+        epilog=BENCHMARK_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--wolves", metavar="POLICY", help="the policy plays the wolves: a wolf law or a saved wolf model")
     who.add_argument("--targets", metavar="POLICY", help="the policy plays the targets: a target law or a saved target model")
     p.add_argument("--tasks", metavar="NAME", nargs="+", choices=TASK_ORDER, default=None, help="only these tasks (default: every task)")
     p.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=200, help="episodes per task (default: 200, the baselines' count: ranks need it)")
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=None, help="first episode seed (default: 500000, the held-out episodes: ranks need it)")
-    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
-                   help="override a parameter of every task by its dotted key (value read as YAML); repeatable; the scorecard is then not ranked")
+    p.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="override a parameter of every task by its dotted key (value read as YAML); repeatable; the scorecard is then not ranked",
+    )
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
     p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty)")
     p.add_argument("--json", action="store_true", help="print the scorecard as one JSON object instead of the table")
@@ -78,8 +89,7 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
         task_params(task, overrides)  # a bad key or value fails here, before anything is written
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
     with tqdm(total=args.episodes * len(tasks), unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
-        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update,
-                                    overrides=overrides)
+        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides)
     card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
     if out is not None:
         paths = scorecard.write(card, out)

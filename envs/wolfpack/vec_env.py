@@ -63,7 +63,6 @@ from wolfpack._checks import check_seed
 from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild, world_agent_infos
 from wolfpack.parallel_env import action_box, observation_box
 
-
 #: The info of every slot whose world is still running after a step: empty and read-only
 #: (``RUNNING_INFO["x"] = 1`` raises ``TypeError``), shared by all such slots.
 RUNNING_INFO: Mapping[str, Any] = MappingProxyType({})
@@ -112,8 +111,7 @@ class WolfpackVecEnv(VecEnv):
             raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'all' (with shared_space=True), got {learners!r}")
         if learners == "all" and shared_space is not True:
             raise ValueError(
-                "make_vec_env(learners='all') needs shared_space=True: the two sides have different observation "
-                "sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
+                "make_vec_env(learners='all') needs shared_space=True: the two sides have different observation sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
             )
         check_shared_space(shared_space, learners)
         self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, opponent=opponent, **overrides)

@@ -114,12 +114,19 @@ def test_rllib_train_joins_a_cluster_started_with_ray_start(tmp_path):
     env = {**os.environ, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
     # A short folder of its own: Ray's Unix sockets live under it (paths are limited to 107 bytes).
     temp = tempfile.mkdtemp(prefix="ray", dir="/tmp")
-    started = subprocess.run([ray_bin, "start", "--head", "--num-cpus", "2", "--include-dashboard", "false", "--disable-usage-stats", f"--temp-dir={temp}"], env=env, capture_output=True, text=True, timeout=120)
+    started = subprocess.run(
+        [ray_bin, "start", "--head", "--num-cpus", "2", "--include-dashboard", "false", "--disable-usage-stats", f"--temp-dir={temp}"], env=env, capture_output=True, text=True, timeout=120
+    )
     assert started.returncode == 0, started.stderr[-2000:]
     try:
         out = tmp_path / "cluster"
-        proc = subprocess.run([sys.executable, str(REPO / "training" / "rllib_train.py"), "--address", "auto", "--iterations", "1", "--num-env-runners", "1", "--out", str(out), *SMALL],
-                              env=env, capture_output=True, text=True, timeout=300)
+        proc = subprocess.run(
+            [sys.executable, str(REPO / "training" / "rllib_train.py"), "--address", "auto", "--iterations", "1", "--num-env-runners", "1", "--out", str(out), *SMALL],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert proc.returncode == 0, proc.stderr[-2000:]
         assert json.loads((out / "summary.json").read_text())["ray_address"] == "auto"
     finally:
@@ -127,14 +134,17 @@ def test_rllib_train_joins_a_cluster_started_with_ray_start(tmp_path):
         shutil.rmtree(temp, ignore_errors=True)
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["--policies", "shared", "--learners", "wolves"], "--learners all"),
-    (["--minibatch", "9000"], "--minibatch"),
-    (["--num-env-runners", "-1"], "--num-env-runners"),
-    (["--resume", "/nonexistent/run"], "--resume"),
-    (["--set", "world.wolvs=3"], "world.wolvs"),
-    (["--address", "127.0.0.1:1"], "no Ray head answers"),  # fails at once instead of Ray's minutes of retries
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["--policies", "shared", "--learners", "wolves"], "--learners all"),
+        (["--minibatch", "9000"], "--minibatch"),
+        (["--num-env-runners", "-1"], "--num-env-runners"),
+        (["--resume", "/nonexistent/run"], "--resume"),
+        (["--set", "world.wolvs=3"], "world.wolvs"),
+        (["--address", "127.0.0.1:1"], "no Ray head answers"),  # fails at once instead of Ray's minutes of retries
+    ],
+)
 def test_rllib_train_bad_arguments_exit_2_with_one_line(tmp_path, capsys, argv, fragment):
     assert rllib_train.main([*argv, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -16,13 +16,53 @@ Importing this package does not import torch; :func:`train` does.
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe
 
 
-def train(learners: str = "wolves", algo: str = "mappo", *, out, time_limit_min=None, timesteps=None, seed: int = 0, params=None, overrides=None, hp=None, opponent=None, device: str = "auto", threads=None, torch_threads=None, eval_episodes: int = 100, evaluations: int = 10, imitate_min=None, resume: bool = False, progress: bool = True) -> dict:
+def train(
+    learners: str = "wolves",
+    algo: str = "mappo",
+    *,
+    out,
+    time_limit_min=None,
+    timesteps=None,
+    seed: int = 0,
+    params=None,
+    overrides=None,
+    hp=None,
+    opponent=None,
+    device: str = "auto",
+    threads=None,
+    torch_threads=None,
+    eval_episodes: int = 100,
+    evaluations: int = 10,
+    imitate_min=None,
+    resume: bool = False,
+    progress: bool = True,
+) -> dict:
     """Trains as ``wolfpack train`` does (``wolfpack train --help``) and returns the run's
     summary; ``overrides`` and ``hp`` are dicts of dotted keys; ``opponent`` is one driver or a
     list of them (a pool, one drawn per rollout, the first evaluated)."""
     from wolfpack.learn.cli import run_training
 
-    return run_training(learners=learners, algo=algo, out=out, time_limit_min=time_limit_min, timesteps=timesteps, seed=seed, params=params, overrides=overrides or {}, hp=hp or {}, opponent=opponent, device=device, threads=threads, torch_threads=torch_threads, eval_episodes=eval_episodes, evaluations=evaluations, imitate_min=imitate_min, resume=resume, progress=progress, command="")
+    return run_training(
+        learners=learners,
+        algo=algo,
+        out=out,
+        time_limit_min=time_limit_min,
+        timesteps=timesteps,
+        seed=seed,
+        params=params,
+        overrides=overrides or {},
+        hp=hp or {},
+        opponent=opponent,
+        device=device,
+        threads=threads,
+        torch_threads=torch_threads,
+        eval_episodes=eval_episodes,
+        evaluations=evaluations,
+        imitate_min=imitate_min,
+        resume=resume,
+        progress=progress,
+        command="",
+    )
 
 
 __all__ = ["ALGOS", "LEARNERS", "recipe", "train"]

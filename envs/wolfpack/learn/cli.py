@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
-from wolfpack.task import TASK_ORDER
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
+from wolfpack.task import TASK_ORDER
 
 DEVICES = ("auto", "cpu", "cuda")
 
@@ -72,26 +72,42 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     """Registers ``train`` on the ``wolfpack`` command's subparsers."""
     from wolfpack.cli import _folder, _int_at_least, _positive_minutes
 
-    p = sub.add_parser("train", help="train wolves, targets or both with PPO (IPPO or MAPPO) on the native batch",
-                       description=TRAIN_DESCRIPTION, epilog=TRAIN_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "train",
+        help="train wolves, targets or both with PPO (IPPO or MAPPO) on the native batch",
+        description=TRAIN_DESCRIPTION,
+        epilog=TRAIN_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--side", required=True, choices=LEARNERS, help="which side learns (both: both sides at once)")
     p.add_argument("--algo", choices=ALGOS, default="mappo", help="ippo (decentralised critic) or mappo (centralised critic on the global state; default)")
     p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="run folder (new or empty, or the run to --resume)")
     p.add_argument("--time-limit", metavar="MIN", type=_positive_minutes, default=None, help="stop after this many minutes of this invocation")
     p.add_argument("--timesteps", metavar="N", type=_int_at_least(1), default=None, help="stop after this many agent-steps in all")
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds (default 0)")
-    p.add_argument("--opponent", metavar="LAW_OR_MODEL", action="append", default=None, help="what drives the other side: a law (seed000, bvc, formation / escape, random, still) or a saved model (default: its law in params); repeated: a pool, one drawn per rollout, the first evaluated")
+    p.add_argument(
+        "--opponent",
+        metavar="LAW_OR_MODEL",
+        action="append",
+        default=None,
+        help="what drives the other side: a law (seed000, bvc, formation / escape, random, still) or a saved model (default: its law in params); repeated: a pool, one drawn per rollout, the first evaluated",
+    )
     scenario = p.add_mutually_exclusive_group()
     scenario.add_argument("--params", metavar="P", default=None, help="scenario YAML (default: the packaged params.yaml)")
-    scenario.add_argument("--task", metavar="NAME", default=None, choices=TASK_ORDER,
-                          help=f"train on a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}")
+    scenario.add_argument("--task", metavar="NAME", default=None, choices=TASK_ORDER, help=f"train on a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="params override, e.g. --set world.wolves=8 (repeatable)")
     p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
     p.add_argument("--device", choices=DEVICES, default="auto", help="where the networks run: auto (CUDA when present), cpu or cuda; the worlds always step on the CPU")
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, 256), default=None, help="the batch's worker threads (default: the recipe's choice for this machine, see --help's text)")
     p.add_argument("--torch-threads", metavar="T", type=_int_at_least(1, 256), default=None, help="torch's threads (default: all cores; the batch and torch take turns, never run together)")
     p.add_argument("--eval-episodes", metavar="K", type=_int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
-    p.add_argument("--imitate", metavar="MIN", type=_positive_minutes, default=None, help="first clone each learning side's scripted law (params policies.<side>) for this many minutes with DAgger, then PPO; part of the time limit")
+    p.add_argument(
+        "--imitate",
+        metavar="MIN",
+        type=_positive_minutes,
+        default=None,
+        help="first clone each learning side's scripted law (params policies.<side>) for this many minutes with DAgger, then PPO; part of the time limit",
+    )
     p.add_argument("--evaluations", metavar="K", type=_int_at_least(1), default=10, help="held-out evaluations per budget, evenly spread (default 10), and one at the end")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest state (its configuration must match)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -105,9 +121,25 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     overrides = dict(config.parse_override(text) for text in args.overrides)
     hp = dict(config.parse_override(text) for text in args.hp)
     summary = run_training(
-        learners=args.side, algo=args.algo, out=args.out, time_limit_min=args.time_limit, timesteps=args.timesteps, seed=args.seed,
-        params=args.params, task=args.task, overrides=overrides, hp=hp, opponent=args.opponent, device=args.device, threads=args.threads,
-        torch_threads=args.torch_threads, eval_episodes=args.eval_episodes, evaluations=args.evaluations, imitate_min=args.imitate, resume=args.resume, progress=not args.no_progress,
+        learners=args.side,
+        algo=args.algo,
+        out=args.out,
+        time_limit_min=args.time_limit,
+        timesteps=args.timesteps,
+        seed=args.seed,
+        params=args.params,
+        task=args.task,
+        overrides=overrides,
+        hp=hp,
+        opponent=args.opponent,
+        device=args.device,
+        threads=args.threads,
+        torch_threads=args.torch_threads,
+        eval_episodes=args.eval_episodes,
+        evaluations=args.evaluations,
+        imitate_min=args.imitate,
+        resume=args.resume,
+        progress=not args.no_progress,
         command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
     )
     final = summary.get("final_evaluation") or {}
@@ -184,8 +216,29 @@ def _short(v: Any) -> str:
     return text if len(text) <= 40 else "different values"
 
 
-def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, seed: int, params, overrides: dict, hp: dict, task: str | None = None, opponent, device: str,
-                 threads, torch_threads, eval_episodes: int, resume: bool, evaluations: int = 10, imitate_min: float | None = None, progress: bool, command: str) -> dict:
+def run_training(
+    *,
+    learners: str,
+    algo: str,
+    out,
+    time_limit_min,
+    timesteps,
+    seed: int,
+    params,
+    overrides: dict,
+    hp: dict,
+    task: str | None = None,
+    opponent,
+    device: str,
+    threads,
+    torch_threads,
+    eval_episodes: int,
+    resume: bool,
+    evaluations: int = 10,
+    imitate_min: float | None = None,
+    progress: bool,
+    command: str,
+) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
     prefer_passive_omp()
     if learners not in LEARNERS:
@@ -225,9 +278,24 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         overrides[f"policies.{other}"] = opponent
     resolved = resolve_params(params, overrides, task)
     cores_env, cores_torch = default_threads()
-    spec = TrainSpec(learners=learners, algo=algo, params=resolved, recipes=recipes, seed=seed, opponent=opponent, opponent_pool=tuple(pool),
-                     timesteps=timesteps, time_limit_min=time_limit_min, threads=threads or cores_env, torch_threads=torch_threads or cores_torch,
-                     device=device, eval_episodes=eval_episodes, evaluations=evaluations, imitate_min=imitate_min, command=command)
+    spec = TrainSpec(
+        learners=learners,
+        algo=algo,
+        params=resolved,
+        recipes=recipes,
+        seed=seed,
+        opponent=opponent,
+        opponent_pool=tuple(pool),
+        timesteps=timesteps,
+        time_limit_min=time_limit_min,
+        threads=threads or cores_env,
+        torch_threads=torch_threads or cores_torch,
+        device=device,
+        eval_episodes=eval_episodes,
+        evaluations=evaluations,
+        imitate_min=imitate_min,
+        command=command,
+    )
     out = Path(out)
     prepare_out(out, resume, spec.identity())
     torch.set_num_threads(spec.torch_threads)
@@ -241,7 +309,20 @@ def run_training(*, learners: str, algo: str, out, time_limit_min, timesteps, se
         from wolfpack.opponents import CONFIG_FILE
 
         out.mkdir(parents=True, exist_ok=True)
-        config = {**spec.identity(), "task": task, "trainer": "wolfpack train", "timesteps": timesteps, "time_limit_min": time_limit_min, "threads": spec.threads,
-                  "torch_threads": spec.torch_threads, "device": device, "eval_episodes": eval_episodes, "evaluations": evaluations, "imitate_min": imitate_min, "command": command, "versions": versions()}
+        config = {
+            **spec.identity(),
+            "task": task,
+            "trainer": "wolfpack train",
+            "timesteps": timesteps,
+            "time_limit_min": time_limit_min,
+            "threads": spec.threads,
+            "torch_threads": spec.torch_threads,
+            "device": device,
+            "eval_episodes": eval_episodes,
+            "evaluations": evaluations,
+            "imitate_min": imitate_min,
+            "command": command,
+            "versions": versions(),
+        }
         (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
     return trainer.run()

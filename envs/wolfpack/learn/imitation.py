@@ -15,7 +15,6 @@ so every time-to-skill figure includes them.
 
 from __future__ import annotations
 
-
 import numpy as np
 import torch
 
@@ -55,8 +54,8 @@ def imitate(trainer, minutes: float, clock, max_rounds: int | None = None) -> li
     ``max_rounds``. Returns one record per round: β, samples, loss, seconds."""
     env, learners, gen = trainer.env, trainer.learners, trainer.generator
     deadline = clock() + 60.0 * minutes
-    data = {side: Dataset(l.actor.obs_dim, l.agents, CAPACITY) for side, l in learners.items()}
-    optimisers = {side: torch.optim.Adam(l.actor.body.parameters(), lr=LEARNING_RATE) for side, l in learners.items()}
+    data = {side: Dataset(learner.actor.obs_dim, learner.agents, CAPACITY) for side, learner in learners.items()}
+    optimisers = {side: torch.optim.Adam(learner.actor.body.parameters(), lr=LEARNING_RATE) for side, learner in learners.items()}
     rng = np.random.default_rng(trainer.spec.seed)
     out = env.reset()
     history = []

@@ -35,7 +35,15 @@ class SideLearner:
         self.side, self.algo, self.recipe, self.device, self.gen = side, algo, recipe, device, generator
         self.agents, self.num_envs, self.n_steps = agents, num_envs, int(recipe["n_steps"])
         centralised = algo == "mappo"
-        self.network = dict(obs_dim=obs_dim, agents=agents, hidden=list(recipe["hidden"]), activation=recipe["activation"], log_std_init=float(recipe["log_std_init"]), agent_id=bool(recipe["agent_id"]), norm_obs=bool(recipe["norm_obs"]))
+        self.network = dict(
+            obs_dim=obs_dim,
+            agents=agents,
+            hidden=list(recipe["hidden"]),
+            activation=recipe["activation"],
+            log_std_init=float(recipe["log_std_init"]),
+            agent_id=bool(recipe["agent_id"]),
+            norm_obs=bool(recipe["norm_obs"]),
+        )
         self.actor = Actor(**self.network).to(device)
         self.critic = Critic(obs_dim, state_dim if centralised else 0, agents, list(recipe["hidden"]), recipe["activation"], bool(recipe["agent_id"]), bool(recipe["norm_obs"])).to(device)
         self.params = [*self.actor.parameters(), *self.critic.parameters()]

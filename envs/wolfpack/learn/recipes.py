@@ -40,6 +40,7 @@ def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> 
 
 def _check(r: dict) -> None:
     """Each value of the right kind and range; ValueError naming the key."""
+
     def need(key: str, ok: bool, what: str) -> None:
         if not ok:
             raise ValueError(f"--hp {key}: must be {what}, got {r[key]!r}")
@@ -56,7 +57,11 @@ def _check(r: dict) -> None:
     for key in ("clip_value", "target_kl"):
         need(key, r[key] is None or (is_num(r[key]) and r[key] > 0), "null or a number > 0")
     need("log_std_init", is_num(r["log_std_init"]), "a number")
-    need("hidden", isinstance(r["hidden"], list) and len(r["hidden"]) >= 1 and all(isinstance(h, int) and not isinstance(h, bool) and h >= 1 for h in r["hidden"]), "a list of layer widths, e.g. [64, 64]")
+    need(
+        "hidden",
+        isinstance(r["hidden"], list) and len(r["hidden"]) >= 1 and all(isinstance(h, int) and not isinstance(h, bool) and h >= 1 for h in r["hidden"]),
+        "a list of layer widths, e.g. [64, 64]",
+    )
     need("activation", r["activation"] in ("tanh", "relu"), "'tanh' or 'relu'")
     for key in ("anneal_lr", "agent_id", "norm_obs", "norm_reward"):
         need(key, isinstance(r[key], bool), "true or false")

@@ -91,9 +91,14 @@ class TrainSpec:
         return identity
 
 
-
 def versions() -> dict:
-    return {"wolfpack": wolfpack.__version__, "torch": str(torch.__version__), "numpy": np.__version__, "python": sys.version.split()[0], "machine": f"{platform.machine()} {platform.processor() or ''}".strip()}
+    return {
+        "wolfpack": wolfpack.__version__,
+        "torch": str(torch.__version__),
+        "numpy": np.__version__,
+        "python": sys.version.split()[0],
+        "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
+    }
 
 
 def _plain(x: Any) -> Any:
@@ -143,15 +148,19 @@ class Trainer:
         self.learners: dict[str, SideLearner] = {}
         for side in spec.sides:
             self.learners[side] = SideLearner(
-                side, spec.algo, spec.recipes[side],
+                side,
+                spec.algo,
+                spec.recipes[side],
                 obs_dim=self.env.wolf_obs_dim if side == "wolves" else self.env.target_obs_dim,
                 state_dim=self.env.state_dim,
                 agents=self.env.n_wolves if side == "wolves" else self.env.n_targets,
-                num_envs=self.num_envs, device=self.device, generator=self.generator,
+                num_envs=self.num_envs,
+                device=self.device,
+                generator=self.generator,
             )
         if state is not None:
             self._restore(state)
-        self.agents_per_step = self.num_envs * sum(l.agents for l in self.learners.values())
+        self.agents_per_step = self.num_envs * sum(learner.agents for learner in self.learners.values())
         self.evaluations: list[dict] = json.loads((self.out / "evaluations.json").read_text()) if resume and (self.out / "evaluations.json").is_file() else []
 
     # --- set-up -----------------------------------------------------------------------------------
@@ -334,8 +343,12 @@ class Trainer:
             "agent_steps": self.agent_steps,
             "updates": self.updates,
             "train_s": self.train_s_before + train_s,
-            "this_invocation": {"train_s": train_s, "eval_s": eval_s, "agent_steps": self.agent_steps - steps_at_start,
-                                "agent_steps_per_s": (self.agent_steps - steps_at_start) / train_s if train_s > 0 else None},
+            "this_invocation": {
+                "train_s": train_s,
+                "eval_s": eval_s,
+                "agent_steps": self.agent_steps - steps_at_start,
+                "agent_steps_per_s": (self.agent_steps - steps_at_start) / train_s if train_s > 0 else None,
+            },
             "stopped_by": "interrupt" if interrupted else ("timesteps" if spec.timesteps and self.agent_steps >= spec.timesteps else "time_limit"),
             "final_evaluation": self.evaluations[-1] if self.evaluations else None,
         }
