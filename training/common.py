@@ -34,7 +34,7 @@ from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_para
 from wolfpack.config import parse_override
 from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, TRAIN_SEED_BASE, Policy, report, rollout, wilson_interval  # noqa: F401  (re-exported for the scripts)
 from wolfpack.models import SavedPolicy, load_policy, native_model_folders
-from wolfpack.opponents import CONFIG_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode, side_observation
+from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode, side_observation  # noqa: F401 (MODEL_FILE: the scripts take it from here)
 
 SIDES = ("wolves", "targets")
 WOLF_LAWS = SCRIPTED_LAWS["wolves"]
