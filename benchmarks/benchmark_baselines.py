@@ -29,11 +29,12 @@ from pathlib import Path
 
 from tqdm import tqdm
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
+from wolfpack.opponents import SCRIPTED_LAWS
 from wolfpack.scorecard import BASELINES_FILE, DEFAULT_EPISODES, SKILL
 from wolfpack.task import TASK_ORDER, task_params
 
-WOLF_LAWS = ("seed000", "bvc", "formation")
-TARGET_LAWS = ("escape", "random", "still")
+WOLF_LAWS = SCRIPTED_LAWS["wolves"]
+TARGET_LAWS = SCRIPTED_LAWS["targets"]
 #: The keys of an evaluation report a baseline keeps.
 KEPT = ("capture_rate", "capture_rate_ci95", "survival_rate", "collision_rate", "target_collision_rate", "timeout_rate", "median_capture_steps")
 

@@ -37,6 +37,7 @@ import imitate  # noqa: E402
 import seeds  # noqa: E402
 import selfplay  # noqa: E402
 import yaml  # noqa: E402
+from wolfpack.opponents import SCRIPTED_LAWS  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BEGIN = re.compile(r"^<!-- generated: ([a-z0-9-]+) -->\n", re.M)
@@ -154,7 +155,7 @@ WALL_FACTOR_RUNS = (
 )
 #: The source document's wall factor, 200 episodes: the world of the SB3 models' own params.
 SOURCE_WALL = "wall_factor/source_200/results.json"
-LAWS = ("seed000", "bvc", "formation")
+LAWS = SCRIPTED_LAWS["wolves"]
 
 
 def row_of(doc: dict, wolves: str, targets: str) -> dict:

@@ -1,6 +1,6 @@
 """Type stubs for the native module ``wolfpack._core`` (rust/py/src/lib.rs)."""
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -8,6 +8,11 @@ from numpy.typing import NDArray
 __version__: str
 #: The most threads a pool may have (``wolfpack_core::episode::MAX_THREADS``).
 MAX_THREADS: int
+#: The outcomes in the order of their codes (a batch's ``outcome`` array indexes it).
+OUTCOMES: tuple[str, ...]
+#: The scripted laws of each side, as ``policies.wolves`` / ``policies.targets`` take them.
+WOLF_LAWS: tuple[str, ...]
+TARGET_LAWS: tuple[str, ...]
 
 def default_params() -> dict[str, Any]:
     """The documented scenario's parameters (``capture.count`` null: derived as ⌈0.8 N⌉)."""
@@ -16,6 +21,7 @@ def validate_params(params: dict[str, Any] | None, resolve: bool = False) -> dic
     """Validates a params dict and returns it complete; with ``resolve``, derived values
     (``capture.count``) are filled in. Raises ValueError naming the offending key."""
 
+def observation_layout(params: Mapping[str, Any], side: str) -> list[dict[str, Any]]: ...
 def param_limits() -> list[dict[str, Any]]:
     """The documented range of every numeric parameter: dicts ``{key, lo, hi, open_lo, unit}``
     (``lo`` excluded when ``open_lo``); array elements share their array's key and a table key

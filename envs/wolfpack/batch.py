@@ -27,7 +27,7 @@ LEARNERS = ("wolves", "targets", "all", "none")
 #: ``collision`` (a wolf touched an obstacle or a wolf), 3 ``timeout`` (``world.max_steps``), 4
 #: ``cornered`` (every target captured or cornered, at least one cornered; only with
 #: ``capture.cornered: true``). ``wolfpack.OUTCOMES.index("captured")`` gives a code back.
-OUTCOMES = ("running", "captured", "collision", "timeout", "cornered")
+OUTCOMES: tuple[str, ...] = tuple(_core.OUTCOMES)
 
 
 #: Keyword aliases the env constructors accept for params keys (PettingZoo's name first).
@@ -97,6 +97,21 @@ def resolve_params(params: str | Path | Mapping[str, Any] | None, overrides: Map
     if not isinstance(params, Mapping):
         raise TypeError(f"params must be None, a path or a dict, got {type(params).__name__}")
     return _core.validate_params(apply_overrides(dict(params), dotted))
+
+
+def observation_layout(side: str, params: str | Path | Mapping[str, Any] | None = None, *, task: str | None = None, **overrides: Any) -> list[dict[str, Any]]:
+    """The blocks of ``side``'s observation (``"wolves"`` or ``"targets"``) under ``params`` (or
+    ``task``, with ``overrides`` on top, as :class:`BatchEnv` takes them), in order: dicts
+    ``{"name", "start", "size"}`` that tile the observation — ``speed``, ``turn_rate``,
+    ``heading``, ``walls``, ``clock``, then the side's own blocks (wolves: ``targets``,
+    ``wolves``, ``lidar``, ``last_sighting`` with ``env.last_sighting``; targets: ``speed_cap``,
+    ``wolves``, ``lidar``) and ``interaction`` with ``env.interaction_row``. The table of
+    docs/interface.md ("Observations") says what each entry means; the core writes by this
+    layout, so a slice taken from it stays right when the params change the sizes."""
+    if side not in ("wolves", "targets"):
+        raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
+    check_override_keywords(overrides)
+    return _core.observation_layout(resolve_params(params, overrides, task), side)
 
 
 class SharedObservation:

@@ -225,8 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
     scenario = hunt.add_mutually_exclusive_group()
     scenario.add_argument("--params", metavar="P", help="scenario YAML (default: the packaged params.yaml); missing keys take their defaults")
     scenario.add_argument("--task", metavar="NAME", choices=TASK_ORDER, help=f"a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}; --set changes it (a modified task)")
-    hunt.add_argument("--wolves", choices=("seed000", "bvc", "formation"), help="wolf law; sets policies.wolves (wins over --set)")
-    hunt.add_argument("--targets", choices=("escape", "random", "still"), help="target law; sets policies.targets (wins over --set)")
+    hunt.add_argument("--wolves", choices=_core.WOLF_LAWS, help="wolf law; sets policies.wolves (wins over --set)")
+    hunt.add_argument("--targets", choices=_core.TARGET_LAWS, help="target law; sets policies.targets (wins over --set)")
     hunt.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=20, help="number of episodes (default: 20)")
     hunt.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="episode k uses seed S + k (default: 0)")
     hunt.add_argument(

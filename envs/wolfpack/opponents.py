@@ -40,9 +40,11 @@ from typing import Any, Callable
 
 import numpy as np
 
+from wolfpack import _core
+
 SIDES = ("wolves", "targets")
-#: The scripted laws each side can follow, by name.
-SCRIPTED_LAWS = {"wolves": ("seed000", "bvc", "formation"), "targets": ("escape", "random", "still")}
+#: The scripted laws each side can follow, by name (the core's own lists).
+SCRIPTED_LAWS: dict[str, tuple[str, ...]] = {"wolves": tuple(_core.WOLF_LAWS), "targets": tuple(_core.TARGET_LAWS)}
 ACTION_MODES = ("unicycle", "velocity")
 #: Where a run folder keeps its model and its configuration (training/).
 MODEL_FILE = "model.zip"

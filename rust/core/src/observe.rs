@@ -44,6 +44,48 @@ pub fn target_dim(p: &Params) -> usize {
     COMMON + 1 + 5 * n + p.env.lidar.rays + extra(p)
 }
 
+/// One block of an observation: `len` entries from `start`, named as the table of
+/// docs/interface.md ("Observations") names its rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Block {
+    pub name: &'static str,
+    pub start: usize,
+    pub len: usize,
+}
+
+/// The blocks of `side`'s observation ("wolves" or "targets") for these params, in order:
+/// they tile `0..wolf_dim(p)` / `0..target_dim(p)`, optional blocks left out where the params
+/// turn them off. The one description of the layout that the Python side and the documents'
+/// test read.
+pub fn layout(p: &Params, side: &str) -> Option<Vec<Block>> {
+    let (n, m, k) = (p.world.wolves, p.world.targets, p.env.lidar.rays);
+    let mut sizes: Vec<(&'static str, usize)> = vec![("speed", 1), ("turn_rate", 1), ("heading", 2), ("walls", 4), ("clock", 1)];
+    match side {
+        "wolves" => {
+            sizes.extend([("targets", 5 * m), ("wolves", 5 * (n - 1)), ("lidar", k)]);
+            if sighting_len(p) > 0 {
+                sizes.push(("last_sighting", sighting_len(p)));
+            }
+        }
+        "targets" => sizes.extend([("speed_cap", 1), ("wolves", 5 * n), ("lidar", k)]),
+        _ => return None,
+    }
+    if extra(p) > 0 {
+        sizes.push(("interaction", extra(p)));
+    }
+    let mut start = 0;
+    Some(
+        sizes
+            .into_iter()
+            .map(|(name, len)| {
+                let b = Block { name, start, len };
+                start += len;
+                b
+            })
+            .collect(),
+    )
+}
+
 /// Entries of the last-sighting block (wolves only).
 fn sighting_len(p: &Params) -> usize {
     if p.env.last_sighting {
@@ -485,6 +527,29 @@ mod tests {
         let mut o = Observer::default();
         o.prepare(w);
         o
+    }
+
+    /// The layout's blocks tile each side's observation, whatever the optional blocks.
+    #[test]
+    fn the_layout_tiles_each_observation() {
+        for (sighting, row) in [(false, false), (true, false), (false, true), (true, true)] {
+            let mut p = Params::default();
+            p.world.wolves = 4;
+            p.world.targets = 2;
+            p.env.last_sighting = sighting;
+            p.env.interaction_row = row;
+            for (side, dim) in [("wolves", wolf_dim(&p)), ("targets", target_dim(&p))] {
+                let blocks = layout(&p, side).unwrap();
+                let mut next = 0;
+                for b in &blocks {
+                    assert_eq!(b.start, next, "{side}: {} starts after the block before it", b.name);
+                    next += b.len;
+                }
+                assert_eq!(next, dim, "{side} with last_sighting {sighting}, interaction_row {row}");
+                assert_eq!(blocks.iter().any(|b| b.name == "interaction"), row);
+            }
+        }
+        assert_eq!(layout(&Params::default(), "dogs"), None);
     }
 
     #[test]

@@ -220,6 +220,23 @@ fn param_limits(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
     Ok(out)
 }
 
+/// The blocks of `side`'s observation ("wolves" or "targets") under `params`, in order:
+/// a list of dicts `{name, start, size}` that tile the observation (`wolfpack_core::observe::layout`).
+#[pyfunction]
+fn observation_layout<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, side: &str) -> PyResult<Bound<'py, PyList>> {
+    let p = params_from(params)?;
+    let blocks = wolfpack_core::observe::layout(&p, side).ok_or_else(|| PyValueError::new_err(format!("side must be 'wolves' or 'targets', got {side:?}")))?;
+    let out = PyList::empty(py);
+    for b in blocks {
+        let d = PyDict::new(py);
+        d.set_item("name", b.name)?;
+        d.set_item("start", b.start)?;
+        d.set_item("size", b.len)?;
+        out.append(d)?;
+    }
+    Ok(out)
+}
+
 /// Checks a layout against params by building the world it describes; returns the resolved
 /// params the layout implies (agent counts taken from the layout).
 #[pyfunction]
@@ -700,6 +717,7 @@ fn render_frame<'py>(py: Python<'py>, scene: &Bound<'py, PyAny>, width: u32, hei
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
     // Panics are caught at the border and reported as RuntimeError; keep their default
     // "thread panicked at" text off the user's terminal.
     std::panic::set_hook(Box::new(|_| {}));
@@ -708,6 +726,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let _ = PyArray1::<f64>::zeros(m.py(), 1, false);
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("MAX_THREADS", wolfpack_core::episode::MAX_THREADS)?;
+    // The names Python shows and accepts, from the core's own lists.
+    m.add("OUTCOMES", PyTuple::new(py, wolfpack_core::world::Outcome::ALL.map(|o| o.as_str()))?)?;
+    m.add("WOLF_LAWS", PyTuple::new(py, wolfpack_core::config::WolfPolicy::ALL.map(|l| l.as_str()))?)?;
+    m.add("TARGET_LAWS", PyTuple::new(py, wolfpack_core::config::TargetPolicy::ALL.map(|l| l.as_str()))?)?;
+    m.add_function(wrap_pyfunction!(observation_layout, m)?)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(validate_params, m)?)?;
     m.add_function(wrap_pyfunction!(param_limits, m)?)?;

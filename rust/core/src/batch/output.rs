@@ -43,6 +43,7 @@ pub struct StepOutput {
     pub distance: Vec<f64>,
 }
 
+/// `o`'s code in the batch's `outcome` array: its index in [`Outcome::ALL`].
 pub fn outcome_code(o: Outcome) -> u8 {
     match o {
         Outcome::Running => 0,
@@ -243,5 +244,17 @@ pub(super) fn write_infos(w: &World, o: &mut SlotOut) {
         } else {
             nearest_wolf_distance(w, k - n)
         };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_outcome_code_is_its_index_in_the_list_of_outcomes() {
+        for (k, o) in Outcome::ALL.into_iter().enumerate() {
+            assert_eq!(usize::from(outcome_code(o)), k, "{}", o.as_str());
+        }
     }
 }

@@ -257,6 +257,9 @@ pub enum TargetPolicy {
 }
 
 impl WolfPolicy {
+    /// Every wolf law, in the order the documents and the CLI list them.
+    pub const ALL: [WolfPolicy; 3] = [Self::Seed000, Self::Bvc, Self::Formation];
+
     /// The name `policies.wolves` takes.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -268,6 +271,9 @@ impl WolfPolicy {
 }
 
 impl TargetPolicy {
+    /// Every target law, in the order the documents and the CLI list them.
+    pub const ALL: [TargetPolicy; 3] = [Self::Escape, Self::Random, Self::Still];
+
     /// The name `policies.targets` takes.
     pub fn as_str(self) -> &'static str {
         match self {

@@ -39,6 +39,10 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// Every outcome, in the order of their codes (the batch's `outcome` array): a code is an
+    /// index into this list.
+    pub const ALL: [Outcome; 5] = [Self::Running, Self::Captured, Self::Collision, Self::Timeout, Self::Cornered];
+
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Running => "running",
