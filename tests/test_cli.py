@@ -274,6 +274,7 @@ def test_trajectory_npz_shapes_dtypes_and_row_semantics(small_run):
         assert a["energy"].shape == (t + 1, n + m) and a["energy"].dtype == np.float64
         assert a["interaction"].shape == (t, n + m, n + m) and a["interaction"].dtype == np.uint8
         assert set(np.unique(a["interaction"])) <= {0, 1}
+        assert a["collisions"].tolist() == d["collisions"]
         assert str(a["outcome"]) == d["outcome"]
         assert int(a["capture_step"]) == (-1 if d["capture_step"] is None else d["capture_step"])
         assert int(a["seed"]) == d["seed"]

@@ -78,3 +78,36 @@ def test_summary_counts_have_integer_ticks(saved, tmp_path):
     for ax in fig.axes:
         ticks = ax.get_yticks()
         assert np.allclose(ticks, np.round(ticks)), ticks
+
+
+def test_wolves_are_drawn_in_blues_and_greens_apart_from_the_red_target():
+    from matplotlib.colors import rgb_to_hsv, to_rgb
+
+    for colour, _ in plots.line_styles(36):
+        hue = rgb_to_hsv(to_rgb(colour))[0]
+        assert 0.25 <= hue <= 0.7, f"{colour}: hue {hue:.2f} is not a blue or a green"
+
+
+def test_a_collision_is_marked_where_the_colliding_wolf_stood(saved, tmp_path):
+    from conftest import synthetic_result
+
+    result = synthetic_result(n=3, steps=9, outcome="collision")
+    result["collisions"] = np.array([0, 2, 0, 0], dtype=np.uint32)  # wolf 1 touched something
+    arrays = logs.trajectory_arrays(result, wolfpack.load_params())
+    plots.plot_trajectory(arrays, tmp_path / "t.png")
+    marks = [line for line in saved[-1].axes[0].get_lines() if line.get_marker() == "X"]
+    assert len(marks) == 1 and marks[0].get_label() == "collision (step 9)"
+    np.testing.assert_allclose(marks[0].get_xydata()[0], arrays["wolves"][-1, 1, :2])
+    # A captured episode has no mark.
+    arrays = logs.trajectory_arrays(synthetic_result(n=3, steps=9), wolfpack.load_params())
+    plots.plot_trajectory(arrays, tmp_path / "c.png")
+    assert not [line for line in saved[-1].axes[0].get_lines() if line.get_marker() == "X"]
+
+
+def test_one_episodes_summary_reads_well(saved, tmp_path):
+    plots.plot_summary([{"outcome": "captured", "capture_step": 175}], tmp_path / "s.png")
+    bars, hist = saved[-1].axes[:2]
+    assert bars.get_title() == "outcomes of 1 episode"
+    lo, hi = hist.get_xlim()
+    assert hi - lo >= 10 and lo < 175 < hi  # steps around the one capture, not a sliver
+    assert all(p.get_edgecolor()[:3] == (0.0, 0.0, 0.0) for p in bars.patches)  # bars with edges

@@ -383,6 +383,12 @@ def league_table(league: dict, steps_header: str = "timesteps") -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The sides' colours, as the trajectories draw them (wolves blue, targets red).
+WOLF_COLOUR, TARGET_COLOUR = "#1f77b4", "crimson"
+#: The opponents' markers in the league's curves, one each (in turn beyond ten).
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
+
+
 def league_curves(out: Path, league: dict) -> None:
     import csv
 
@@ -398,12 +404,17 @@ def league_curves(out: Path, league: dict) -> None:
     for ax, side in zip(axes[:2], SIDES):
         mine = [m for m in members_of(league, side) if m["kind"] == "model"]
         theirs = members_of(league, OTHER[side])
-        for opp, (colour, style) in zip(theirs, line_styles(len(theirs))):
+        # Two opponents often give a member the same rate (0 % against two laws, say): each
+        # opponent's points are shifted sideways by its own small amount and drawn with its own
+        # marker, so that coincident points stay visible side by side.
+        spread = min(0.3, 0.06 * len(theirs))
+        for k, (opp, (colour, style)) in enumerate(zip(theirs, line_styles(len(theirs)))):
+            dodge = spread * (k / max(len(theirs) - 1, 1) - 0.5)
             pts = [(m["generation"], win_rate(league, m["name"], side, opp["name"])) for m in mine]
-            pts = [(g, 100 * w) for g, w in pts if w is not None]
+            pts = [(g + dodge, 100 * w) for g, w in pts if w is not None]
             if pts:
-                ax.plot(*zip(*pts), marker="o", color=colour, linestyle=style, label=f"vs {opp['name']}")
-        ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out)", fontsize=10)
+                ax.plot(*zip(*pts), marker=MARKERS[k % len(MARKERS)], markersize=5, color=colour, linestyle=style, label=f"vs {opp['name']}")
+        ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out; points dodged sideways)", fontsize=10)
         ax.set_xlabel("generation")
         last = max([g["generation"] for g in league["generations"]] + [1])
         first = min([m["generation"] for m in mine] + [1])  # 0: a borrowed model (--member)
@@ -426,7 +437,7 @@ def league_curves(out: Path, league: dict) -> None:
         if rows:
             xs = [offset + float(r["agent_steps"]) / 1e6 for r in rows]
             ys = [float(r[column]) for r in rows]
-            colour = "tab:red" if g["side"] == "wolves" else "tab:blue"
+            colour = WOLF_COLOUR if g["side"] == "wolves" else TARGET_COLOUR
             # Each rollout meets another opponent: the raw curve is noisy, its running mean
             # over 20 rollouts is the trend.
             ax.plot(xs, ys, color=colour, alpha=0.25, linewidth=0.8)
@@ -435,7 +446,7 @@ def league_curves(out: Path, league: dict) -> None:
             ax.plot(xs, smooth, color=colour, linewidth=1.8)
         offset += g["timesteps"] / 1e6
     ax.set_title("training return per episode (line: mean of 20 rollouts)", fontsize=10)
-    ax.legend(handles=[Line2D([], [], color="tab:red", label="wolves learn"), Line2D([], [], color="tab:blue", label="targets learn")], fontsize=7, loc="best")
+    ax.legend(handles=[Line2D([], [], color=WOLF_COLOUR, label="wolves learn"), Line2D([], [], color=TARGET_COLOUR, label="targets learn")], fontsize=7, loc="best")
     ax.set_xlabel("league agent-steps (millions)")
     ax.grid(alpha=0.3)
     fig.savefig(out / "league_curves.png", dpi=120)

@@ -105,7 +105,8 @@ is written under a temporary name and renamed, so every file present is complete
                                       float64 wolves [T+1,N,5] and targets [T+1,M,5]
                                       (x, y, theta, v, omega; row 0 = initial state, row t =
                                       after step t), energy [T+1,N+M] (accumulated), uint8
-                                      interaction [T,N+M,N+M], outcome, capture_step (-1: none),
+                                      interaction [T,N+M,N+M], uint32 collisions [N+M] (steps
+                                      in contact), outcome, capture_step (-1: none),
                                       target_capture_step [M], cornered_step, seed, obstacle_poses [T+1,K,3], obstacle_kind,
                                       obstacle_radius, obstacle_vertices [K,V,2] (NaN-padded,
                                       relative to the centre at angle 0), border, ts,

@@ -24,6 +24,8 @@ key                    dtype, shape         meaning
 ``energy``             float64 [T+1, N+M]   accumulated Σ ½ m v² (J) per agent, wolves first;
                                             row 0 is 0
 ``interaction``        uint8 [T, N+M, N+M]  0/1 per step; row = observer, column = observed
+``collisions``         uint32 [N+M]         steps each agent spent touching an obstacle (or, a
+                                            wolf, another wolf); the plots mark a collision
 ``outcome``            str scalar           ``captured`` / ``collision`` / ``timeout`` /
                                             ``cornered`` (only with ``capture.cornered``)
 ``capture_step``       int64 scalar         step of the (last) capture, -1 if none
@@ -93,6 +95,7 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
         "targets": np.asarray(traj["targets"], dtype=np.float64),
         "energy": np.asarray(traj["energy"], dtype=np.float64),
         "interaction": np.asarray(traj["interaction"], dtype=np.uint8),
+        "collisions": np.asarray(result["collisions"], dtype=np.uint32),
         "outcome": np.array(str(result["outcome"])),
         "capture_step": np.array(-1 if capture_step is None else int(capture_step), dtype=np.int64),
         "target_capture_step": np.array([-1 if c is None else int(c) for c in ends], dtype=np.int64),

@@ -25,8 +25,12 @@ from matplotlib.ticker import MaxNLocator
 OUTCOMES = ("captured", "cornered", "collision", "timeout")
 _OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
 _TARGET_COLOUR = "crimson"
-# Matplotlib's cycle without its red (C3), which is the target's colour.
-_WOLF_COLOURS = ("C0", "C1", "C2", "C4", "C5", "C6", "C7", "C8", "C9")
+# The wolves' family: blues, teals and greens, far from the target's red (no orange, brown,
+# pink or purple, which read as red beside it), dark and light alternating so that neighbours
+# differ.
+_WOLF_COLOURS = ("#1f77b4", "#17becf", "#2ca02c", "#08306b", "#74add1", "#00665e", "#66c2a4", "#3f5f9f", "#41ab5d")
+#: How a collision is marked on a trajectory: where the wolf stood when it ended the episode.
+_COLLISION_MARK = {"marker": "X", "markersize": 11, "markerfacecolor": "black", "markeredgecolor": "white", "linestyle": "none"}
 _LINE_STYLES = ("-", "--", ":", "-.")
 
 
@@ -84,8 +88,10 @@ def _title(a: Mapping[str, np.ndarray], label: str) -> str:
 
 def plot_trajectory(a: Mapping[str, np.ndarray], path: Path, label: str = "episode") -> None:
     """``trajectory.png``: arena border; obstacles at their initial pose (light) and final pose;
-    each wolf's path (o = start, ▲ = end) and the targets' paths; a ring of radius
-    ``capture_distance`` around each target's final position; title with outcome and steps."""
+    each wolf's path (o = start, ▲ = end; wolves in blues and greens) and the targets' paths (red);
+    a ring of radius ``capture_distance`` around each target's final position; on an episode
+    ended by a collision, a black ✕ where each colliding wolf stood at that step; title with
+    outcome and steps."""
     fig = Figure(figsize=(7.6, 6.4), dpi=_DPI, layout="constrained")
     ax = fig.add_subplot()
     x0, y0, x1, y1 = a["border"]
@@ -98,6 +104,15 @@ def plot_trajectory(a: Mapping[str, np.ndarray], path: Path, label: str = "episo
         ax.plot(path_i[:, 0], path_i[:, 1], color=colour, linestyle=style, linewidth=1.0, label=f"wolf {i}")
         ax.plot(*path_i[0], "o", color=colour, markersize=4)
         ax.plot(*path_i[-1], "^", color=colour, markersize=6)
+    if str(a["outcome"]) == "collision" and "collisions" in a:
+        # The episode ends at the step of the collision: each wolf that was touching an
+        # obstacle or another wolf then stands where it happened.
+        n = a["wolves"].shape[1]
+        hit = [i for i in range(n) if int(a["collisions"][i]) > 0]
+        steps = a["interaction"].shape[0]
+        for k, i in enumerate(hit):
+            ax.plot(*a["wolves"][-1, i, :2], **_COLLISION_MARK, label=f"collision (step {steps})" if k == 0 else None)
+            ax.annotate(f"wolf {i}", a["wolves"][-1, i, :2], xytext=(6, 6), textcoords="offset points", fontsize=8)
     for j in range(a["targets"].shape[1]):
         path_j = a["targets"][:, j, :2]
         ax.plot(path_j[:, 0], path_j[:, 1], color=_TARGET_COLOUR, linewidth=1.6, label="target" if j == 0 else None)
@@ -190,6 +205,14 @@ def plot_interaction(a: Mapping[str, np.ndarray], path: Path, label: str = "epis
     fig.savefig(path)
 
 
+def step_bins(steps: Sequence[int], most: int = 40) -> np.ndarray:
+    """Histogram bin edges for step counts: whole steps at the bins' centres, each bin a whole
+    number of steps wide, at most ``most`` bins."""
+    lo, hi = min(steps), max(steps)
+    width = max(1, int(np.ceil((hi - lo + 1) / most)))
+    return np.arange(lo - 0.5, hi + width + 0.5, width)
+
+
 def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
     """``summary.png``: counts of each outcome (bar chart; ``cornered`` only when some episode
     ended so) and the histogram of capture steps over captured episodes. ``details`` are
@@ -200,14 +223,18 @@ def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
 
     fig = Figure(figsize=(9.0, 3.6), dpi=_DPI, layout="constrained")
     ax_bar, ax_hist = fig.subplots(1, 2)
-    bars = ax_bar.bar(shown, [counts.get(o, 0) for o in shown], color=[_OUTCOME_COLOURS[o] for o in shown])
+    bars = ax_bar.bar(shown, [counts.get(o, 0) for o in shown], color=[_OUTCOME_COLOURS[o] for o in shown], edgecolor="black", linewidth=0.8)
     ax_bar.bar_label(bars)
     ax_bar.margins(y=0.12)  # room for the labels above the bars
     ax_bar.set_ylabel("episodes")
     ax_bar.yaxis.set_major_locator(MaxNLocator(integer=True))
-    ax_bar.set_title(f"outcomes of {len(details)} episodes", fontsize=10)
+    ax_bar.set_title(f"outcomes of {len(details)} episode{'' if len(details) == 1 else 's'}", fontsize=10)
     if capture_steps:
-        ax_hist.hist(capture_steps, bins="auto", color=_OUTCOME_COLOURS["captured"])
+        ax_hist.hist(capture_steps, bins=step_bins(capture_steps), color=_OUTCOME_COLOURS["captured"], edgecolor="black", linewidth=0.6)
+        lo, hi = min(capture_steps), max(capture_steps)
+        if hi - lo < 10:  # a few episodes, or all alike: show the steps around them, not a sliver
+            ax_hist.set_xlim(lo - 5, hi + 6)
+        ax_hist.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax_hist.axvline(float(np.median(capture_steps)), color="black", linestyle="--", label="median")
         _legend_outside(ax_hist)
     else:
