@@ -548,14 +548,14 @@ def front_page_benchmark(results: Results) -> str:
 def figures(results: Results) -> list[Path]:
     """Redraws the figures of RESULTS.md that a script draws from committed JSON alone, in place;
     returns their paths. Not redrawn: the trajectories (they need the simulator: evaluate.py
-    ``--trajectories``), the SB3 runs' learning curves (their right panel is the training return
-    of a progress.csv that was not committed) and the SB3 league's curves (its generations logged
-    an older progress.csv layout)."""
+    ``--trajectories``) and the SB3 runs' learning curves (their right panel is the training return
+    of a progress.csv that was not committed)."""
     root = results.root
     rows = results.json("results.json")["rows"]
     evaluate.plot(rows, root / "figures")
     evaluate.matrix_plot(results.json("matrix/matrix.json"), root / "matrix" / "matrix.png")
-    selfplay.league_curves(root / "league_native", results.json("league_native/league.json"))
+    for league in ("league", "targets_long", "league_native"):
+        selfplay.league_curves(root / league, results.json(f"{league}/league.json"))
     imitate.plot(root / "models" / "wolves_bc_vel_b", results.json("models/wolves_bc_vel_b/imitation.json")["rounds"], "wolves", path=root / "figures" / "wolves_bc_imitation.png")
     benchmark_report.task_figure(benchmark_baselines(results), root / "benchmark" / "tasks.png")
     benchmark_report.profile_figure(benchmark_baselines(results), root / "benchmark" / "profiles.png")
@@ -563,6 +563,8 @@ def figures(results: Results) -> list[Path]:
         root / "figures" / "capture_rates.png",
         root / "figures" / "capture_times.png",
         root / "matrix" / "matrix.png",
+        root / "league" / "league_curves.png",
+        root / "targets_long" / "league_curves.png",
         root / "league_native" / "league_curves.png",
         root / "figures" / "wolves_bc_imitation.png",
         root / "benchmark" / "tasks.png",

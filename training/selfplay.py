@@ -397,7 +397,6 @@ def league_curves(out: Path, league: dict) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
-    from matplotlib.ticker import MaxNLocator
     from wolfpack.plots import line_styles
 
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.6), layout="constrained")
@@ -419,7 +418,9 @@ def league_curves(out: Path, league: dict) -> None:
         last = max([g["generation"] for g in league["generations"]] + [1])
         first = min([m["generation"] for m in mine] + [1])  # 0: a borrowed model (--member)
         ax.set_xlim(first - 0.5, last + 0.5)
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_xticks(range(first, last + 1))  # generations are whole numbers, however few
+        if not mine:
+            ax.text(0.5, 0.5, f"no learned {side} in this league", ha="center", va="center", transform=ax.transAxes, color="0.4")
         ax.set_ylabel("%")
         ax.set_ylim(-2, 102)
         ax.grid(alpha=0.3)
@@ -431,12 +432,14 @@ def league_curves(out: Path, league: dict) -> None:
         path = out / "generations" / f"{g['generation']:02d}" / "progress.csv"
         if not path.is_file():
             continue
-        column = f"{g['side']}_return"
         with path.open() as f:
-            rows = [r for r in csv.DictReader(f) if r.get(column)]
+            reader = csv.DictReader(f)
+            # The native trainer's log, or SB3's logger (leagues of format 1).
+            x_key, y_key = ("agent_steps", f"{g['side']}_return") if "agent_steps" in (reader.fieldnames or []) else ("time/total_timesteps", "rollout/ep_rew_mean")
+            rows = [r for r in reader if r.get(y_key)]
         if rows:
-            xs = [offset + float(r["agent_steps"]) / 1e6 for r in rows]
-            ys = [float(r[column]) for r in rows]
+            xs = [offset + float(r[x_key]) / 1e6 for r in rows]
+            ys = [float(r[y_key]) for r in rows]
             colour = WOLF_COLOUR if g["side"] == "wolves" else TARGET_COLOUR
             # Each rollout meets another opponent: the raw curve is noisy, its running mean
             # over 20 rollouts is the trend.
