@@ -111,3 +111,21 @@ def test_one_episodes_summary_reads_well(saved, tmp_path):
     lo, hi = hist.get_xlim()
     assert hi - lo >= 10 and lo < 175 < hi  # steps around the one capture, not a sliver
     assert all(p.get_edgecolor()[:3] == (0.0, 0.0, 0.0) for p in bars.patches)  # bars with edges
+
+
+def test_league_curves_keep_coincident_rates_apart(saved, tmp_path):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "training"))
+    import selfplay
+
+    member = {"name": "targets_g01", "side": "targets", "kind": "model", "generation": 1}
+    laws = [{"name": law, "side": "wolves", "kind": "scripted", "generation": 0} for law in ("seed000", "bvc", "formation")]
+    # The one target member survives bvc and formation alike: two points at the same place.
+    evaluations = [{"wolves": law["name"], "targets": "targets_g01", "capture_rate": rate} for law, rate in zip(laws, (0.2, 0.9, 0.9))]
+    league = {"members": [*laws, member], "evaluations": evaluations, "generations": [{"generation": 1, "side": "targets", "timesteps": 1000}]}
+    selfplay.league_curves(tmp_path, league)
+    targets_ax = saved[-1].axes[1]
+    points = {line.get_label(): (tuple(line.get_xydata()[0]), line.get_marker()) for line in targets_ax.get_lines() if line.get_label().startswith("vs ")}
+    (xy_bvc, marker_bvc), (xy_formation, marker_formation) = points["vs bvc"], points["vs formation"]
+    assert xy_bvc[1] == xy_formation[1] == pytest.approx(10.0) and xy_bvc[0] != xy_formation[0] and marker_bvc != marker_formation
+    assert list(targets_ax.get_xticks()) == [1]
+    assert "no learned wolves" in " ".join(t.get_text() for t in saved[-1].axes[0].texts)
