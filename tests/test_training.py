@@ -340,3 +340,16 @@ def test_the_matrix_names_the_scenario_it_was_played_in():
     assert evaluate.scenario_name(changed).startswith("params of no named task")
     doc = json.loads((TRAINING.parent / "results" / "matrix" / "matrix.json").read_text())
     assert "played in task `hunt-v1`" in evaluate.matrix_summary_markdown(doc).splitlines()[0]
+
+
+def test_the_sb3_scripts_ask_torch_openmp_to_wait_passively_unless_the_user_chose():
+    import os
+    import subprocess
+
+    # A fresh interpreter: importing a script sets the policy before torch loads.
+    code = f"import os, sys\nsys.path.insert(0, {str(TRAINING)!r})\nimport train, torch\nprint(os.environ.get('OMP_WAIT_POLICY'))\n"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    fresh = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert fresh.stdout.strip() == "PASSIVE"
+    chosen = subprocess.run([sys.executable, "-c", code], env={**env, "OMP_WAIT_POLICY": "ACTIVE"}, capture_output=True, text=True, check=True)
+    assert chosen.stdout.strip() == "ACTIVE"
