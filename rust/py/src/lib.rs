@@ -353,7 +353,7 @@ fn actions_from<'py>(obj: Option<&Bound<'py, PyAny>>, side: &str, shape: [usize;
     Ok(Some(arr))
 }
 
-fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyResult<Bound<'py, PyDict>> {
+fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, mut o: StepOutput) -> PyResult<Bound<'py, PyDict>> {
     let e = env.num_envs();
     let (n, m) = (env.n_wolves(), env.n_targets());
     let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
@@ -361,29 +361,39 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyR
     let d = PyDict::new(py);
     let l = env.learners();
     if l.wolves() {
-        d.set_item(intern!(py, "obs_wolves"), array(py, o.obs_wolves, &[e, n, dw])?)?;
+        d.set_item(intern!(py, "obs_wolves"), array(py, std::mem::take(&mut o.obs_wolves), &[e, n, dw])?)?;
         if !o.final_obs_wolves.is_empty() {
-            d.set_item(intern!(py, "final_obs_wolves"), array(py, o.final_obs_wolves, &[e, n, dw])?)?;
+            d.set_item(intern!(py, "final_obs_wolves"), array(py, std::mem::take(&mut o.final_obs_wolves), &[e, n, dw])?)?;
         }
     }
     if l.targets() {
-        d.set_item(intern!(py, "obs_targets"), array(py, o.obs_targets, &[e, m, dt])?)?;
+        d.set_item(intern!(py, "obs_targets"), array(py, std::mem::take(&mut o.obs_targets), &[e, m, dt])?)?;
         if !o.final_obs_targets.is_empty() {
-            d.set_item(intern!(py, "final_obs_targets"), array(py, o.final_obs_targets, &[e, m, dt])?)?;
+            d.set_item(intern!(py, "final_obs_targets"), array(py, std::mem::take(&mut o.final_obs_targets), &[e, m, dt])?)?;
         }
     }
-    d.set_item(intern!(py, "rewards_wolves"), array(py, o.rewards_wolves, &[e, n])?)?;
-    d.set_item(intern!(py, "rewards_targets"), array(py, o.rewards_targets, &[e, m])?)?;
-    d.set_item(intern!(py, "terminated"), PyArray1::from_vec(py, o.terminated))?;
-    d.set_item(intern!(py, "truncated"), PyArray1::from_vec(py, o.truncated))?;
-    d.set_item(intern!(py, "outcome"), PyArray1::from_vec(py, o.outcome))?;
-    d.set_item(intern!(py, "steps"), PyArray1::from_vec(py, o.steps))?;
-    d.set_item(intern!(py, "capture_step"), array(py, o.capture_step, &[e, m])?)?;
-    d.set_item(intern!(py, "cornered_step"), array(py, o.cornered_step, &[e, m])?)?;
-    d.set_item(intern!(py, "energy"), array(py, o.energy, &[e, n + m])?)?;
-    d.set_item(intern!(py, "collisions"), array(py, o.collisions, &[e, n + m])?)?;
-    d.set_item(intern!(py, "distance"), array(py, o.distance, &[e, n + m])?)?;
+    d.set_item(intern!(py, "rewards_wolves"), array(py, std::mem::take(&mut o.rewards_wolves), &[e, n])?)?;
+    d.set_item(intern!(py, "rewards_targets"), array(py, std::mem::take(&mut o.rewards_targets), &[e, m])?)?;
+    set_infos(py, &d, &mut o, [e, n, m])?;
     Ok(d)
+}
+
+/// The per-world infos of a step into `d`, as every step call returns them, in this order
+/// (the SB3 view's `step_infos` keeps it): `outcome` [E]; `capture_step`, `cornered_step` [E, M];
+/// `energy`, `collisions`, `distance` [E, N+M]; `terminated`, `truncated`, `steps` [E]. The one
+/// place that names and shapes them; their arrays are taken out of `o`.
+fn set_infos<'py>(py: Python<'py>, d: &Bound<'py, PyDict>, o: &mut StepOutput, [e, n, m]: [usize; 3]) -> PyResult<()> {
+    use std::mem::take;
+    d.set_item(intern!(py, "outcome"), PyArray1::from_vec(py, take(&mut o.outcome)))?;
+    d.set_item(intern!(py, "capture_step"), array(py, take(&mut o.capture_step), &[e, m])?)?;
+    d.set_item(intern!(py, "cornered_step"), array(py, take(&mut o.cornered_step), &[e, m])?)?;
+    d.set_item(intern!(py, "energy"), array(py, take(&mut o.energy), &[e, n + m])?)?;
+    d.set_item(intern!(py, "collisions"), array(py, take(&mut o.collisions), &[e, n + m])?)?;
+    d.set_item(intern!(py, "distance"), array(py, take(&mut o.distance), &[e, n + m])?)?;
+    d.set_item(intern!(py, "terminated"), PyArray1::from_vec(py, take(&mut o.terminated)))?;
+    d.set_item(intern!(py, "truncated"), PyArray1::from_vec(py, take(&mut o.truncated)))?;
+    d.set_item(intern!(py, "steps"), PyArray1::from_vec(py, take(&mut o.steps)))?;
+    Ok(())
 }
 
 /// `obj` as a float32 C-contiguous array of exactly `shape`, or None (no error built: this is
@@ -587,10 +597,12 @@ impl PyBatchEnv {
             _ => (&[], flat),
         };
         let env = &mut this.inner;
-        let o = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
+        let mut o = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
         let done_world: Vec<bool> = o.terminated.iter().zip(&o.truncated).map(|(a, b)| *a || *b).collect();
         let ended = done_world.iter().any(|d| *d);
         let dones: Vec<bool> = done_world.iter().flat_map(|d| std::iter::repeat_n(*d, k)).collect();
+        let d = PyDict::new(py);
+        set_infos(py, &d, &mut o, [e, n, m])?;
         let rewards: Vec<f32> = match (l.wolves(), l.targets()) {
             (true, true) => o.rewards_wolves.chunks_exact(n).zip(o.rewards_targets.chunks_exact(m)).flat_map(|(w, t)| w.iter().chain(t).copied()).collect(),
             (true, false) => o.rewards_wolves,
@@ -605,16 +617,6 @@ impl PyBatchEnv {
         };
         let obs = obs_of(o.obs_wolves, o.obs_targets)?;
         let final_obs = if ended { obs_of(o.final_obs_wolves, o.final_obs_targets)? } else { py.None().into_bound(py) };
-        let d = PyDict::new(py);
-        d.set_item(intern!(py, "outcome"), PyArray1::from_vec(py, o.outcome))?;
-        d.set_item(intern!(py, "capture_step"), array(py, o.capture_step, &[e, m])?)?;
-        d.set_item(intern!(py, "cornered_step"), array(py, o.cornered_step, &[e, m])?)?;
-        d.set_item(intern!(py, "energy"), array(py, o.energy, &[e, n + m])?)?;
-        d.set_item(intern!(py, "collisions"), array(py, o.collisions, &[e, n + m])?)?;
-        d.set_item(intern!(py, "distance"), array(py, o.distance, &[e, n + m])?)?;
-        d.set_item(intern!(py, "terminated"), PyArray1::from_vec(py, o.terminated))?;
-        d.set_item(intern!(py, "truncated"), PyArray1::from_vec(py, o.truncated))?;
-        d.set_item(intern!(py, "steps"), PyArray1::from_vec(py, o.steps))?;
         let out = [obs, PyArray1::from_vec(py, rewards).into_any(), PyArray1::from_vec(py, dones).into_any(), d.into_any(), final_obs];
         PyTuple::new(py, out).map(Some)
     }
