@@ -551,25 +551,18 @@ def figures(results: Results) -> list[Path]:
     ``--trajectories``) and the SB3 runs' learning curves (their right panel is the training return
     of a progress.csv that was not committed)."""
     root = results.root
-    rows = results.json("results.json")["rows"]
-    evaluate.plot(rows, root / "figures")
-    evaluate.matrix_plot(results.json("matrix/matrix.json"), root / "matrix" / "matrix.png")
+    evaluate.plot(results.json("results.json")["rows"], root / "figures")
+    drawn = [root / "figures" / "capture_rates.png", root / "figures" / "capture_times.png", root / "matrix" / "matrix.png"]
+    evaluate.matrix_plot(results.json("matrix/matrix.json"), drawn[-1])
     for league in ("league", "targets_long", "league_native"):
         selfplay.league_curves(root / league, results.json(f"{league}/league.json"))
-    imitate.plot(root / "models" / "wolves_bc_vel_b", results.json("models/wolves_bc_vel_b/imitation.json")["rounds"], "wolves", path=root / "figures" / "wolves_bc_imitation.png")
-    benchmark_report.task_figure(benchmark_baselines(results), root / "benchmark" / "tasks.png")
-    benchmark_report.profile_figure(benchmark_baselines(results), root / "benchmark" / "profiles.png")
-    drawn = [
-        root / "figures" / "capture_rates.png",
-        root / "figures" / "capture_times.png",
-        root / "matrix" / "matrix.png",
-        root / "league" / "league_curves.png",
-        root / "targets_long" / "league_curves.png",
-        root / "league_native" / "league_curves.png",
-        root / "figures" / "wolves_bc_imitation.png",
-        root / "benchmark" / "tasks.png",
-        root / "benchmark" / "profiles.png",
-    ]
+        drawn.append(root / league / "league_curves.png")
+    drawn.append(root / "figures" / "wolves_bc_imitation.png")
+    imitate.plot(root / "models" / "wolves_bc_vel_b", results.json("models/wolves_bc_vel_b/imitation.json")["rounds"], "wolves", path=drawn[-1])
+    baselines = benchmark_baselines(results)
+    for name, draw in (("tasks.png", benchmark_report.task_figure), ("profiles.png", benchmark_report.profile_figure)):
+        drawn.append(root / "benchmark" / name)
+        draw(baselines, drawn[-1])
     for folder, axis in (
         ("learned/wolves_mappo", "minutes"),
         ("learned/wolves_pool", "minutes"),

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from wolfpack.task import TASK_ORDER, task_params
+from wolfpack.task import TASK_ORDER
 
 BENCHMARK_DESCRIPTION = """\
 Score one policy on every task of the benchmark suite (docs/tasks.md) and rank it against the
@@ -84,9 +84,8 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     out = Path(args.out) if args.out is not None else None
     if out is not None and out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ValueError(f"--out {out}: not a new or empty folder")
+    # A bad key or value fails in scorecard(), before any episode and before anything is written.
     overrides = dict(config.parse_override(text) for text in args.overrides)
-    for task in tasks:
-        task_params(task, overrides)  # a bad key or value fails here, before anything is written
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
     with tqdm(total=args.episodes * len(tasks), unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
         card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides)
