@@ -21,12 +21,12 @@ Usage::
     python benchmarks/learning_speed.py --side wolves --minutes 2 --seeds 1 --json        # throughput only
     python benchmarks/learning_speed.py --trainers native --minutes 15 --seeds 5 --out benchmarks/results/learning-x.json
 
-Runs go one after another (never side by side: each has the machine to itself). On a machine with
-many cores, ``--parallel N`` runs N at once instead, each pinned to its own two cores with two
-batch and two torch threads: a 2-core figure per run, N of them at a time (the runs still share
-the memory bus and the last-level cache, so it is not the same as a 2-core machine). The jobs
-alternate between the trainers so that both see the same neighbours. Nothing here asserts a
-speed; the numbers are what the machine gave.
+Runs go one after another (never side by side: each has the machine to itself), seed by seed with
+the trainers in turn. On a machine with many cores, ``--parallel N`` runs N at once instead, each
+pinned to its own two cores with two batch and two torch threads: a 2-core figure per run, N of
+them at a time (the runs still share the memory bus and the last-level cache, so it is not the
+same as a 2-core machine); alternating, both trainers see the same neighbours. Nothing here
+asserts a speed; the numbers are what the machine gave.
 """
 
 from __future__ import annotations
@@ -258,10 +258,9 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(args.keep) if args.keep else Path(scratch)
         base.mkdir(parents=True, exist_ok=True)
-        if args.parallel == 1:
-            jobs = [(trainer, seed) for trainer in args.trainers for seed in seeds]
-        else:
-            jobs = [(trainer, seed) for seed in seeds for trainer in args.trainers]
+        # Seed by seed, the trainers in turn: a machine whose speed drifts over the hour (a VM's
+        # neighbours) weighs on both trainers alike.
+        jobs = [(trainer, seed) for seed in seeds for trainer in args.trainers]
         folders = {job: base / f"{job[0]}_{args.side}_{args.algo if job[0] == 'native' else 'ppo'}_s{job[1]}" for job in jobs}
         failed = run_jobs(jobs, folders, args, cores)
         if failed:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import platform
 import subprocess
 import sys
 from pathlib import Path
@@ -419,3 +420,28 @@ def test_a_training_run_asks_torch_openmp_to_wait_passively_unless_the_user_chos
     assert fresh.stdout.strip() == "PASSIVE"
     chosen = subprocess.run([sys.executable, "-c", code], env={**env, "OMP_WAIT_POLICY": "ACTIVE"}, capture_output=True, text=True, check=True)
     assert chosen.stdout.strip() == "ACTIVE"
+
+
+def test_a_training_run_keeps_freed_minibatch_memory_in_the_heap_unless_the_user_chose():
+    # glibc reports memory held in separate mappings (mallinfo2's hblkhd): a 4 MB block is one by
+    # default, and comes from the heap once training asked malloc to keep its freed memory. A
+    # user's own MALLOC_*_ variables are left alone (nothing changed, the default stays).
+    if platform.system() != "Linux" or not platform.libc_ver()[0] == "glibc":
+        pytest.skip("mallopt is glibc's")
+    code = (
+        "import ctypes, sys\n"
+        "from wolfpack.learn.cli import keep_freed_memory\n"
+        "class Info(ctypes.Structure):\n"
+        "    _fields_ = [(n, ctypes.c_size_t) for n in ('arena', 'ordblks', 'smblks', 'hblks', 'hblkhd', 'usmblks', 'fsmblks', 'uordblks', 'fordblks', 'keepcost')]\n"
+        "libc = ctypes.CDLL(None)\n"
+        "libc.mallinfo2.restype = Info\n"
+        "changed = keep_freed_memory() if sys.argv[1] == 'keep' else None\n"
+        "before = libc.mallinfo2().hblkhd\n"
+        "block = bytearray(4 << 20)\n"
+        "print(changed, libc.mallinfo2().hblkhd - before >= 4 << 20)\n"
+    )
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
+    run = lambda which, **extra: subprocess.run([sys.executable, "-c", code, which], env={**env, **extra}, capture_output=True, text=True, check=True).stdout.split()  # noqa: E731
+    assert run("default") == ["None", "True"]
+    assert run("keep") == ["True", "False"]
+    assert run("keep", MALLOC_TRIM_THRESHOLD_="131072", MALLOC_MMAP_THRESHOLD_="131072") == ["False", "True"]

@@ -178,6 +178,43 @@ def prefer_passive_omp() -> None:
         os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
+#: glibc's mallopt parameters (malloc.h) and the values training asks for.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_KEEP_HEAP = {"MALLOC_TRIM_THRESHOLD_": (_M_TRIM_THRESHOLD, 1 << 30), "MALLOC_MMAP_THRESHOLD_": (_M_MMAP_THRESHOLD, 32 << 20)}
+
+
+def keep_freed_memory() -> bool:
+    """Asks glibc's malloc to keep freed memory for the next allocation instead of returning it to
+    the system: blocks under 32 MiB come from the heap, and the heap is not trimmed below 1 GiB.
+    A parameter the user set through its ``MALLOC_*_`` variable is left as it is. Returns whether
+    malloc was changed (False where the C library is not glibc).
+
+    Why: every gradient step allocates a dozen fresh tensors of 0.5–5 MB (the minibatch's gathered
+    rows, each layer's activations and gradients); above glibc's mmap threshold each one is a fresh
+    mapping whose pages the kernel must fault in and zero, and a freed one goes back to the kernel
+    at once. Kept in the heap, they are reused warm. Measured on the 2-core VM, one PPO update of
+    the wolves' default recipe (327,680 samples, 40 minibatches of 8,192) in alternated processes:
+    a third fewer page faults (256 k against 370 k for setup and 13 updates), system time 0.8–0.9
+    against 1.1–1.3 s, median update 0.70–0.76 s against 0.79–0.84 s (of the same order as the
+    VM's noise: other pairs differed by less). The price is a process that keeps its peak heap until it exits."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name) if name else None
+        mallopt = libc.mallopt if libc is not None else None
+    except (OSError, AttributeError):
+        return False
+    if mallopt is None or not hasattr(libc, "gnu_get_libc_version"):
+        return False
+    changed = False
+    for variable, (parameter, value) in _KEEP_HEAP.items():
+        if variable not in os.environ:
+            changed = bool(mallopt(parameter, value)) or changed
+    return changed
+
+
 def resolve_device(device: str):
     import torch
 
@@ -241,6 +278,7 @@ def run_training(
 ) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
     prefer_passive_omp()
+    keep_freed_memory()
     if learners not in LEARNERS:
         raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
     if algo not in ALGOS:
