@@ -265,6 +265,10 @@ class BatchEnv:
         seed: base seed, an integer with ``seed + num_envs - 1 < 2**64``.
         autoreset: reset a finished world within the same step (SB3's convention), keeping
             its last observation in ``final_obs_*``.
+        final_state: with ``autoreset``, every step also returns ``final_state`` [E,
+            state_dim]: the global state (:meth:`state`) a world ended its episode in, before its
+            reset (zeros where no episode ended) — what a centralised critic bootstraps from
+            when an episode was truncated. Off by default: one array more per step.
         threads: worker threads (None: all cores; at most 256). Results never depend on it.
         opponent: what drives the side that does not learn (:mod:`wolfpack.opponents`): None
             (its law in params), a scripted law's name, a model path, an SB3 model or policy,
@@ -282,7 +286,8 @@ class BatchEnv:
     (when wolves learn), ``obs_targets`` [E, M, Dt] (when targets learn), ``rewards_wolves``
     [E, N] and ``rewards_targets`` [E, M] (both sides always, the scripted one too, so that
     evaluations can report its return), ``terminated`` / ``truncated`` [E] bool,
-    ``final_obs_*`` (autoreset; valid where the episode ended), and the infos of the episode the
+    ``final_obs_*`` (autoreset; valid where the episode ended), ``final_state`` [E, S] (with
+    ``final_state=True``), and the infos of the episode the
     step belongs to: ``outcome`` [E] uint8 (see :data:`OUTCOMES`), ``steps`` [E],
     ``capture_step`` [E, M] (−1: not captured; with ``capture.cornered``, a cornered target's
     end counts), ``cornered_step`` [E, M] (first step each target was cornered, −1: never),
@@ -301,14 +306,20 @@ class BatchEnv:
         autoreset: bool = True,
         threads: int | None = None,
         opponent: Any = None,
+        final_state: bool = False,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, **overrides)
+        self._init_kwargs = dict(
+            params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, final_state=final_state, **overrides
+        )
         self.learners = check_learners(learners)
         num_envs = check_int(num_envs, "num_envs", 1)
         threads = check_threads(threads)
         seed = check_seed(seed, span=num_envs)
         autoreset = check_flag(autoreset, "autoreset")
+        final_state = check_flag(final_state, "final_state")
+        if final_state and not autoreset:
+            raise ValueError("final_state needs autoreset=True: without it a finished world keeps its state, which state() returns")
         check_override_keywords(overrides)
         self._base_params = resolve_params(params, overrides, task)
         #: The task these worlds play (None: ``params``); with overrides outside ``policies``,
@@ -316,7 +327,7 @@ class BatchEnv:
         self.task: str | None = task
         self.opponent: Opponent | None = as_opponent(opponent) if opponent is not None else None
         core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)
-        self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads)
+        self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads, final_state)
         self._core_learners = core_learners
         #: :attr:`_learned_opponent_side`, kept here for :meth:`step`'s fast path (it changes
         #: only in :meth:`set_opponent`).

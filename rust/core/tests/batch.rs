@@ -163,6 +163,44 @@ fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did()
 }
 
 #[test]
+fn the_final_state_is_the_state_a_world_ended_in_and_zero_elsewhere() {
+    // A twin batch without autoreset keeps each world as its episode ended: its state() row is
+    // what the autoreset batch must hand out as that world's final state, on the step it ended
+    // (scripted laws on both sides, so both batches play the same episodes).
+    let p = Params::default();
+    let e = 6;
+    let mut auto = BatchEnv::new(p.clone(), e, Learners::None, 3, true, Some(2)).unwrap();
+    let mut kept = BatchEnv::new(p, e, Learners::None, 3, false, Some(1)).unwrap();
+    let off = auto.step(&[], &[]).unwrap();
+    assert!(off.final_state.is_empty(), "off by default");
+    auto.set_final_state(true);
+    kept.step(&[], &[]).unwrap();
+    let d = auto.state_dim();
+    let mut seen = vec![false; e];
+    for t in 2..=1000 {
+        let twin_ended: Vec<bool> = kept.step(&[], &[]).map(|o| o.outcome.iter().map(|&c| c != 0).collect()).unwrap();
+        let o = auto.step(&[], &[]).unwrap();
+        assert_eq!(o.final_state.len(), e * d);
+        let want = kept.state().unwrap();
+        for w in 0..e {
+            let ended = o.terminated[w] || o.truncated[w];
+            let row = &o.final_state[w * d..(w + 1) * d];
+            if ended && !seen[w] {
+                assert!(twin_ended[w], "step {t}, world {w}: the twin's episode ended too");
+                assert!(row.iter().zip(&want[w * d..(w + 1) * d]).all(|(a, b)| a.to_bits() == b.to_bits()), "step {t}, world {w}: final state differs from the ended world's state");
+                seen[w] = true;
+            } else if !ended {
+                assert!(row.iter().all(|x| *x == 0.0), "step {t}, world {w}: no episode ended, final state not zero");
+            }
+        }
+        if seen.iter().all(|s| *s) {
+            return;
+        }
+    }
+    panic!("some world never ended its first episode in 1,000 steps: {seen:?}");
+}
+
+#[test]
 fn invalid_actions_are_named_and_move_nothing() {
     let mut env = BatchEnv::new(Params::default(), 3, Learners::Wolves, 0, true, Some(1)).unwrap();
     let before = env.world(1).unwrap().wolves.clone();

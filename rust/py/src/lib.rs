@@ -372,6 +372,9 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, mut o: StepOutput) ->
             d.set_item(intern!(py, "final_obs_targets"), array(py, std::mem::take(&mut o.final_obs_targets), &[e, m, dt])?)?;
         }
     }
+    if !o.final_state.is_empty() {
+        d.set_item(intern!(py, "final_state"), array(py, std::mem::take(&mut o.final_state), &[e, env.state_dim()])?)?;
+    }
     d.set_item(intern!(py, "rewards_wolves"), array(py, std::mem::take(&mut o.rewards_wolves), &[e, n])?)?;
     d.set_item(intern!(py, "rewards_targets"), array(py, std::mem::take(&mut o.rewards_targets), &[e, m])?)?;
     set_infos(py, &d, &mut o, [e, n, m])?;
@@ -458,15 +461,17 @@ fn shared<'py>(slf: &Bound<'py, PyBatchEnv>) -> PyResult<PyRef<'py, PyBatchEnv>>
 #[pymethods]
 impl PyBatchEnv {
     #[new]
-    #[pyo3(signature = (params=None, num_envs=1, learners="wolves", seed=0, autoreset=true, threads=None))]
-    fn new(py: Python<'_>, params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>) -> PyResult<Self> {
+    #[pyo3(signature = (params=None, num_envs=1, learners="wolves", seed=0, autoreset=true, threads=None, final_state=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(py: Python<'_>, params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>, final_state: bool) -> PyResult<Self> {
         let p = match params {
             Some(obj) => params_from(obj)?,
             None => Params::default(),
         };
         let l = Learners::parse(learners).map_err(value_error)?;
         let stop = AtomicBool::new(false);
-        let inner = interruptible(py, &stop, || guarded(|| BatchEnv::new_until(p, num_envs, l, seed, autoreset, threads, &stop))?.map_err(value_error))?;
+        let mut inner = interruptible(py, &stop, || guarded(|| BatchEnv::new_until(p, num_envs, l, seed, autoreset, threads, &stop))?.map_err(value_error))?;
+        inner.set_final_state(final_state);
         Ok(Self { inner })
     }
 

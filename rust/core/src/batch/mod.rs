@@ -139,6 +139,8 @@ pub struct BatchEnv {
     /// `threads` is None); `None` with one thread, which steps on the caller's thread alone.
     crew: Option<Crew>,
     track_laws: bool,
+    /// Whether a step writes [`StepOutput::final_state`] (autoreset only).
+    final_state: bool,
 }
 
 impl BatchEnv {
@@ -174,7 +176,7 @@ impl BatchEnv {
             t => Some(Crew::new(t - 1).map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false };
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false, final_state: false };
         let participants = env.participants();
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
         let worlds: Vec<Result<Slot>> = share(env.crew.as_mut(), participants, (0..num_envs).collect(), MAX_CHUNK, g);
@@ -246,6 +248,13 @@ impl BatchEnv {
     /// Entries in one world's global state row ([`crate::state`]).
     pub fn state_dim(&self) -> usize {
         crate::state::state_dim(&self.params)
+    }
+
+    /// Whether every step, with autoreset, also writes the global state of each world whose
+    /// episode ended before resetting it ([`StepOutput::final_state`]; off by default: it is
+    /// an [E, state_dim] array more per step, and only centralised critics read it).
+    pub fn set_final_state(&mut self, on: bool) {
+        self.final_state = on;
     }
 
     /// Every world's global state, [E, state_dim] row-major ([`crate::state`] has the layout).
@@ -536,6 +545,9 @@ fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Lea
     write_infos(&s.world, &mut o);
     if autoreset && outcome != Outcome::Running {
         write_obs(s, o.fin_w, o.fin_t);
+        if !o.fin_s.is_empty() {
+            crate::state::write_state(&s.world, p, o.fin_s)?;
+        }
         s.respawn(params, s.episode + 1, track)?;
     }
     write_obs(s, o.obs_w, o.obs_t);
