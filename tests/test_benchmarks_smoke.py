@@ -108,6 +108,18 @@ def test_alternating_benchmark_runs_and_reports_both_rates():
     assert len(rates) >= 2 and all(r > 0 for r in rates[-2:]), line
 
 
+def test_torchrl_view_benchmark_reports_both_rates_per_size():
+    pytest.importorskip("torchrl")
+    script = SCRIPT.parent / "torchrl_view.py"
+    cmd = [sys.executable, str(script), "--sizes", "8", "16", "--repeats", "1", "--seconds", "0.05", "--json"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    doc = json.loads(done.stdout)
+    assert set(doc["sizes"]) == {"8", "16"}
+    for rates in doc["sizes"].values():
+        assert set(rates) == {"batch", "torchrl"} and all(r["median"] > 0 and len(r["runs"]) == 1 for r in rates.values()), rates
+
+
 def test_under_load_benchmark_runs_with_a_busy_process_and_stops_it(tmp_path):
     script = SCRIPT.parent / "under_load.py"
     out = tmp_path / "under_load.json"

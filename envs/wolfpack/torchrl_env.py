@@ -89,7 +89,6 @@ class WolfpackEnv(EnvBase):
         # What the worlds are at now (after the last step's autoresets), for reset() to return.
         self._current: dict[str, torch.Tensor] | None = None
         self._just_ended = np.zeros(b.num_envs, dtype=bool)
-        self._wolves_play = torch.ones(b.num_envs, b.n_wolves, dtype=torch.bool)
 
     # --- specs ---------------------------------------------------------------------------------
 
@@ -145,12 +144,14 @@ class WolfpackEnv(EnvBase):
         if not ended.any():
             return self._td(current, ended=ended, out=out)
         # "next" holds what each ended episode ended in; self._current keeps the fresh starts.
-        rows = torch.from_numpy(ended)
         last = dict(current)
         for side in self.groups:
-            key = f"{side}.observation"
-            last[key] = torch.where(rows[:, None, None], torch.from_numpy(out[f"final_obs_{side}"]), current[key])
-        last["state"] = torch.where(rows[:, None], torch.from_numpy(out["final_state"]), current["state"])
+            obs = out[f"obs_{side}"].copy()
+            obs[ended] = out[f"final_obs_{side}"][ended]
+            last[f"{side}.observation"] = torch.from_numpy(obs)
+        state = current["state"].numpy().copy()
+        state[ended] = out["final_state"][ended]
+        last["state"] = torch.from_numpy(state)
         if "targets" in self.groups:
             last["targets.mask"] = torch.from_numpy(out["capture_step"] < 0)
         return self._td(last, ended=ended, out=out)
@@ -169,7 +170,7 @@ class WolfpackEnv(EnvBase):
         if hooks is not None:
             tensordict, tensordict_ = hooks(tensordict, tensordict_)
         if self._just_ended.any():
-            tensordict_.update(self._td(self._current, ended=None))
+            tensordict_.update(self._fresh_entries(self._current))
             self._just_ended[:] = False
         return tensordict, tensordict_
 
@@ -201,10 +202,23 @@ class WolfpackEnv(EnvBase):
         for side in self.groups:
             view[f"{side}.observation"] = torch.from_numpy(out[f"obs_{side}"])
             if side == "wolves":
-                view["wolves.mask"] = self._wolves_play
+                view["wolves.mask"] = torch.ones(self.batch.num_envs, self._agents[side], dtype=torch.bool)
             else:
                 view["targets.mask"] = torch.from_numpy((out["capture_step"] < 0) | fresh[:, None])
         return view
+
+    def _fresh_entries(self, view: dict[str, torch.Tensor]) -> dict:
+        """Every entry a reset sets, by nested key, for the worlds as ``view`` has them (no episode
+        ended: every done flag False, outcome 0): what a reset writes over a step's next root."""
+        e = self.batch.num_envs
+        entries: dict = {"state": view["state"], "outcome": torch.zeros(e, 1, dtype=torch.int64)}
+        for flag in ("done", "terminated", "truncated"):
+            entries[flag] = torch.zeros(e, 1, dtype=torch.bool)
+        for side in self.groups:
+            entries[side, "observation"], entries[side, "mask"] = view[f"{side}.observation"], view[f"{side}.mask"]
+            for flag in ("done", "terminated", "truncated"):
+                entries[side, flag] = torch.zeros(e, self._agents[side], 1, dtype=torch.bool)
+        return entries
 
     def _td(self, view: dict[str, torch.Tensor], ended: np.ndarray | None, out: dict | None = None) -> TensorDictBase:
         e = self.batch.num_envs
