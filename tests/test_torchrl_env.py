@@ -123,49 +123,21 @@ def test_bad_input_is_named():
         WolfpackEnv(**{"world.wolves": -1})
 
 
-def test_batch_final_state_is_opt_in_and_needs_autoreset():
+def test_batch_with_state_returns_the_state_and_the_final_state():
     env = wolfpack.BatchEnv(num_envs=2, **{"world.max_steps": 2})
     env.reset(0)
-    assert "final_state" not in env.step(np.zeros((2, 5, 2), np.float32))
-    with pytest.raises(ValueError, match="final_state needs autoreset"):
-        wolfpack.BatchEnv(autoreset=False, final_state=True)
-    with pytest.raises(ValueError, match="final_state must be True or False"):
-        wolfpack.BatchEnv(final_state="yes")
-    env = wolfpack.BatchEnv(num_envs=2, final_state=True, **{"world.max_steps": 2})
-    env.reset(0)
+    plain = env.step(np.zeros((2, 5, 2), np.float32))
+    assert "state" not in plain and "final_state" not in plain
+    with pytest.raises(ValueError, match="with_state must be True or False"):
+        wolfpack.BatchEnv(with_state="yes")
+    env = wolfpack.BatchEnv(num_envs=2, with_state=True, **{"world.max_steps": 2})
+    assert np.array_equal(env.reset(0)["state"], env.state())
     first = env.step(np.zeros((2, 5, 2), np.float32))
+    assert np.array_equal(first["state"], env.state())
     assert first["final_state"].shape == (2, env.state_dim) and not first["final_state"].any()
     last = env.step(np.zeros((2, 5, 2), np.float32))
     assert last["truncated"].all() and (last["final_state"][:, -1] == 1.0).all(), "the clock at the step limit"
-    assert (env.state()[:, -1] == 0).all(), "already reset"
-
-
-def test_the_cheap_step_and_reset_builds_what_torchrls_generic_one_builds():
-    # TorchRL's own step_and_maybe_reset (a step, step_mdp, then a partial reset merged entry by
-    # entry) on one batch, the view's on a twin: the same tensordicts, step after step, through
-    # many episode ends.
-    from torchrl.envs import EnvBase
-
-    def make():
-        env = WolfpackEnv(num_envs=8, learners="all", **{"world.max_steps": 7})
-        env.set_seed(2)
-        return env, env.reset()
-
-    (generic, a), (cheap, b) = make(), make()
-    rng = np.random.default_rng(1)
-    ended = 0
-    for t in range(40):
-        acts = {"wolves": torch.from_numpy(fixed_actions(rng, 8, 5)), "targets": torch.from_numpy(fixed_actions(rng, 8, 1))}
-        for td in (a, b):
-            for side, act in acts.items():
-                td[side, "action"] = act
-        da, a = EnvBase.step_and_maybe_reset(generic, a)
-        db, b = cheap.step_and_maybe_reset(b)
-        ended += int(da["next", "done"].sum())
-        assert set(da.keys(True, True)) == set(db.keys(True, True)), t
-        assert set(a.keys(True, True)) == set(b.keys(True, True)), t
-        for key in da.keys(True, True):
-            assert torch.equal(da[key], db[key]), (t, key)
-        for key in a.keys(True, True):
-            assert torch.equal(a[key], b[key]), (t, key)
-    assert ended >= 8 * 5
+    assert (last["state"][:, -1] == 0).all() and np.array_equal(last["state"], env.state()), "already reset"
+    kept = wolfpack.BatchEnv(num_envs=2, autoreset=False, with_state=True)
+    out = kept.step(np.zeros((2, 5, 2), np.float32))
+    assert "final_state" not in out and np.array_equal(out["state"], kept.state())

@@ -67,7 +67,7 @@ class BatchEnv:
         seed: int = 0,
         autoreset: bool = True,
         threads: int | None = None,
-        final_state: bool = False,
+        with_state: bool = False,
     ) -> None: ...
     def reset(self, seed: int | None = None) -> dict[str, Any]:
         """Resets every world (world i seeded ``seed + i``, else its next episode)."""

@@ -265,10 +265,12 @@ class BatchEnv:
         seed: base seed, an integer with ``seed + num_envs - 1 < 2**64``.
         autoreset: reset a finished world within the same step (SB3's convention), keeping
             its last observation in ``final_obs_*``.
-        final_state: with ``autoreset``, every step also returns ``final_state`` [E,
-            state_dim]: the global state (:meth:`state`) a world ended its episode in, before its
-            reset (zeros where no episode ended) — what a centralised critic bootstraps from
-            when an episode was truncated. Off by default: one array more per step.
+        with_state: every reset and step also returns ``state`` [E, state_dim] (what
+            :meth:`state` would return after it, written by each world's own task) and, with
+            ``autoreset``, ``final_state`` [E, state_dim]: the global state a world ended its
+            episode in, before its reset (zeros where no episode ended) — what a centralised
+            critic bootstraps from when an episode was truncated. Off by default: one or two
+            arrays more per step.
         threads: worker threads (None: all cores; at most 256). Results never depend on it.
         opponent: what drives the side that does not learn (:mod:`wolfpack.opponents`): None
             (its law in params), a scripted law's name, a model path, an SB3 model or policy,
@@ -286,8 +288,8 @@ class BatchEnv:
     (when wolves learn), ``obs_targets`` [E, M, Dt] (when targets learn), ``rewards_wolves``
     [E, N] and ``rewards_targets`` [E, M] (both sides always, the scripted one too, so that
     evaluations can report its return), ``terminated`` / ``truncated`` [E] bool,
-    ``final_obs_*`` (autoreset; valid where the episode ended), ``final_state`` [E, S] (with
-    ``final_state=True``), and the infos of the episode the
+    ``final_obs_*`` (autoreset; valid where the episode ended), ``state`` and ``final_state`` [E, S]
+    (with ``with_state=True``), and the infos of the episode the
     step belongs to: ``outcome`` [E] uint8 (see :data:`OUTCOMES`), ``steps`` [E],
     ``capture_step`` [E, M] (−1: not captured; with ``capture.cornered``, a cornered target's
     end counts), ``cornered_step`` [E, M] (first step each target was cornered, −1: never),
@@ -306,20 +308,16 @@ class BatchEnv:
         autoreset: bool = True,
         threads: int | None = None,
         opponent: Any = None,
-        final_state: bool = False,
+        with_state: bool = False,
         **overrides: Any,
     ) -> None:
-        self._init_kwargs = dict(
-            params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, final_state=final_state, **overrides
-        )
+        self._init_kwargs = dict(params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=autoreset, threads=threads, opponent=opponent, with_state=with_state, **overrides)
         self.learners = check_learners(learners)
         num_envs = check_int(num_envs, "num_envs", 1)
         threads = check_threads(threads)
         seed = check_seed(seed, span=num_envs)
         autoreset = check_flag(autoreset, "autoreset")
-        final_state = check_flag(final_state, "final_state")
-        if final_state and not autoreset:
-            raise ValueError("final_state needs autoreset=True: without it a finished world keeps its state, which state() returns")
+        with_state = check_flag(with_state, "with_state")
         check_override_keywords(overrides)
         self._base_params = resolve_params(params, overrides, task)
         #: The task these worlds play (None: ``params``); with overrides outside ``policies``,
@@ -327,7 +325,7 @@ class BatchEnv:
         self.task: str | None = task
         self.opponent: Opponent | None = as_opponent(opponent) if opponent is not None else None
         core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)
-        self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads, final_state)
+        self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads, with_state)
         self._core_learners = core_learners
         #: :attr:`_learned_opponent_side`, kept here for :meth:`step`'s fast path (it changes
         #: only in :meth:`set_opponent`).

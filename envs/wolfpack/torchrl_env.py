@@ -76,7 +76,7 @@ class WolfpackEnv(EnvBase):
     ) -> None:
         if learners == "none":
             raise ValueError("learners: the TorchRL view needs a learning side ('wolves', 'targets' or 'all'); to watch the laws play, use wolfpack.BatchEnv or wolfpack hunt")
-        self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, opponent=opponent, final_state=True, **overrides)
+        self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, opponent=opponent, with_state=True, **overrides)
         b = self.batch
         super().__init__(device=device, batch_size=torch.Size([b.num_envs]))
         self.groups = tuple(side for side in SIDES if (b.learns_wolves if side == "wolves" else b.learns_targets))
@@ -121,7 +121,7 @@ class WolfpackEnv(EnvBase):
             out = self.batch.reset(self._seed)
             self._seed = None  # a later full reset starts each world's next episode
             self._just_ended[:] = False
-            self._current = self._view(out, self.batch.state(), fresh=self._just_ended)
+            self._current = self._view(out, fresh=self._just_ended)
             return self._td(self._current, ended=None)
         # The worlds that just ended were reset within their step: their first observations are
         # in self._current. A world asked to reset in the middle of an episode starts afresh;
@@ -130,7 +130,7 @@ class WolfpackEnv(EnvBase):
         for i in afresh:
             out = self.batch.reset_world(int(i))
         if len(afresh):
-            self._current = self._view(out, self.batch.state(), fresh=np.zeros(self.batch.num_envs, dtype=bool))
+            self._current = self._view(out, fresh=np.zeros(self.batch.num_envs, dtype=bool))
         self._just_ended &= ~which
         return self._td(self._current, ended=None)
 
@@ -139,7 +139,7 @@ class WolfpackEnv(EnvBase):
         out = self.batch.step(actions.get("wolves"), actions.get("targets"))
         ended = np.logical_or(out["terminated"], out["truncated"])
         self._just_ended = ended
-        current = self._view(out, self.batch.state(), fresh=ended)
+        current = self._view(out, fresh=ended)
         self._current = current
         if not ended.any():
             return self._td(current, ended=ended, out=out)
@@ -149,7 +149,7 @@ class WolfpackEnv(EnvBase):
             obs = out[f"obs_{side}"].copy()
             obs[ended] = out[f"final_obs_{side}"][ended]
             last[f"{side}.observation"] = torch.from_numpy(obs)
-        state = current["state"].numpy().copy()
+        state = out["state"].copy()
         state[ended] = out["final_state"][ended]
         last["state"] = torch.from_numpy(state)
         if "targets" in self.groups:
@@ -194,11 +194,11 @@ class WolfpackEnv(EnvBase):
             which |= m.reshape(m.shape[0], -1).any(-1).cpu()
         return which.numpy()
 
-    def _view(self, out: dict, state: np.ndarray, fresh: np.ndarray) -> dict[str, torch.Tensor]:
-        """The worlds as they are after a reset or a step's autoresets, from its output ``out``
-        and ``state``: CPU tensors on the batch's arrays (no copies), keyed ``side.entry`` and by
-        root name. ``fresh`` [E]: the worlds whose episode just started (every target plays)."""
-        view: dict[str, torch.Tensor] = {"state": torch.from_numpy(state)}
+    def _view(self, out: dict, fresh: np.ndarray) -> dict[str, torch.Tensor]:
+        """The worlds as they are after a reset or a step's autoresets, from its output ``out``:
+        CPU tensors on the batch's arrays (no copies), keyed ``side.entry`` and by root name.
+        ``fresh`` [E]: the worlds whose episode just started (every target plays)."""
+        view: dict[str, torch.Tensor] = {"state": torch.from_numpy(out["state"])}
         for side in self.groups:
             view[f"{side}.observation"] = torch.from_numpy(out[f"obs_{side}"])
             if side == "wolves":

@@ -196,7 +196,8 @@ def keep_freed_memory() -> bool:
     the wolves' default recipe (327,680 samples, 40 minibatches of 8,192) in alternated processes:
     a third fewer page faults (256 k against 370 k for setup and 13 updates), system time 0.8–0.9
     against 1.1–1.3 s, median update 0.70–0.76 s against 0.79–0.84 s (of the same order as the
-    VM's noise: other pairs differed by less). The price is a process that keeps its peak heap until it exits."""
+    VM's noise: other pairs differed by less). The price is a process that keeps its peak heap
+    until it exits."""
     import ctypes
     import ctypes.util
 

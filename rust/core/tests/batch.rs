@@ -163,7 +163,7 @@ fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did()
 }
 
 #[test]
-fn the_final_state_is_the_state_a_world_ended_in_and_zero_elsewhere() {
+fn the_state_is_written_in_the_step_and_the_final_state_is_the_one_a_world_ended_in() {
     // A twin batch without autoreset keeps each world as its episode ended: its state() row is
     // what the autoreset batch must hand out as that world's final state, on the step it ended
     // (scripted laws on both sides, so both batches play the same episodes).
@@ -172,8 +172,8 @@ fn the_final_state_is_the_state_a_world_ended_in_and_zero_elsewhere() {
     let mut auto = BatchEnv::new(p.clone(), e, Learners::None, 3, true, Some(2)).unwrap();
     let mut kept = BatchEnv::new(p, e, Learners::None, 3, false, Some(1)).unwrap();
     let off = auto.step(&[], &[]).unwrap();
-    assert!(off.final_state.is_empty(), "off by default");
-    auto.set_final_state(true);
+    assert!(off.final_state.is_empty() && off.state.is_empty(), "off by default");
+    auto.set_with_state(true);
     kept.step(&[], &[]).unwrap();
     let d = auto.state_dim();
     let mut seen = vec![false; e];
@@ -181,6 +181,8 @@ fn the_final_state_is_the_state_a_world_ended_in_and_zero_elsewhere() {
         let twin_ended: Vec<bool> = kept.step(&[], &[]).map(|o| o.outcome.iter().map(|&c| c != 0).collect()).unwrap();
         let o = auto.step(&[], &[]).unwrap();
         assert_eq!(o.final_state.len(), e * d);
+        // The state written in the step is the state() of the worlds after it.
+        assert!(o.state.iter().zip(&auto.state().unwrap()).all(|(a, b)| a.to_bits() == b.to_bits()), "step {t}: state differs from state()");
         let want = kept.state().unwrap();
         for w in 0..e {
             let ended = o.terminated[w] || o.truncated[w];

@@ -372,6 +372,9 @@ fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, mut o: StepOutput) ->
             d.set_item(intern!(py, "final_obs_targets"), array(py, std::mem::take(&mut o.final_obs_targets), &[e, m, dt])?)?;
         }
     }
+    if !o.state.is_empty() {
+        d.set_item(intern!(py, "state"), array(py, std::mem::take(&mut o.state), &[e, env.state_dim()])?)?;
+    }
     if !o.final_state.is_empty() {
         d.set_item(intern!(py, "final_state"), array(py, std::mem::take(&mut o.final_state), &[e, env.state_dim()])?)?;
     }
@@ -461,9 +464,9 @@ fn shared<'py>(slf: &Bound<'py, PyBatchEnv>) -> PyResult<PyRef<'py, PyBatchEnv>>
 #[pymethods]
 impl PyBatchEnv {
     #[new]
-    #[pyo3(signature = (params=None, num_envs=1, learners="wolves", seed=0, autoreset=true, threads=None, final_state=false))]
+    #[pyo3(signature = (params=None, num_envs=1, learners="wolves", seed=0, autoreset=true, threads=None, with_state=false))]
     #[allow(clippy::too_many_arguments)]
-    fn new(py: Python<'_>, params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>, final_state: bool) -> PyResult<Self> {
+    fn new(py: Python<'_>, params: Option<&Bound<'_, PyAny>>, num_envs: usize, learners: &str, seed: u64, autoreset: bool, threads: Option<usize>, with_state: bool) -> PyResult<Self> {
         let p = match params {
             Some(obj) => params_from(obj)?,
             None => Params::default(),
@@ -471,7 +474,7 @@ impl PyBatchEnv {
         let l = Learners::parse(learners).map_err(value_error)?;
         let stop = AtomicBool::new(false);
         let mut inner = interruptible(py, &stop, || guarded(|| BatchEnv::new_until(p, num_envs, l, seed, autoreset, threads, &stop))?.map_err(value_error))?;
-        inner.set_final_state(final_state);
+        inner.set_with_state(with_state);
         Ok(Self { inner })
     }
 
@@ -631,7 +634,7 @@ impl PyBatchEnv {
     fn observe<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let mut this = exclusive(slf)?;
         let env = &mut this.inner;
-        let out = py.detach(|| guarded(|| env.observe_all()))?;
+        let out = py.detach(|| guarded(|| env.observe_all()))?.map_err(value_error)?;
         step_output_to_py(py, &this.inner, out)
     }
 

@@ -139,8 +139,9 @@ pub struct BatchEnv {
     /// `threads` is None); `None` with one thread, which steps on the caller's thread alone.
     crew: Option<Crew>,
     track_laws: bool,
-    /// Whether a step writes [`StepOutput::final_state`] (autoreset only).
-    final_state: bool,
+    /// Whether outputs carry [`StepOutput::state`] and, on autoreset steps,
+    /// [`StepOutput::final_state`].
+    with_state: bool,
 }
 
 impl BatchEnv {
@@ -176,7 +177,7 @@ impl BatchEnv {
             t => Some(Crew::new(t - 1).map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false, final_state: false };
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false, with_state: false };
         let participants = env.participants();
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
         let worlds: Vec<Result<Slot>> = share(env.crew.as_mut(), participants, (0..num_envs).collect(), MAX_CHUNK, g);
@@ -250,11 +251,13 @@ impl BatchEnv {
         crate::state::state_dim(&self.params)
     }
 
-    /// Whether every step, with autoreset, also writes the global state of each world whose
-    /// episode ended before resetting it ([`StepOutput::final_state`]; off by default: it is
-    /// an [E, state_dim] array more per step, and only centralised critics read it).
-    pub fn set_final_state(&mut self, on: bool) {
-        self.final_state = on;
+    /// Whether every reset and step also writes each world's global state
+    /// ([`StepOutput::state`], in the worlds' own tasks rather than a pass of [`Self::state`]
+    /// after them) and, on autoreset steps, the state each ended episode finished in
+    /// ([`StepOutput::final_state`]). Off by default: one or two [E, state_dim] arrays more per
+    /// step, which only centralised critics read.
+    pub fn set_with_state(&mut self, on: bool) {
+        self.with_state = on;
     }
 
     /// Every world's global state, [E, state_dim] row-major ([`crate::state`] has the layout).
@@ -300,7 +303,7 @@ impl BatchEnv {
         for s in &mut self.slots {
             s.world.track_laws = track;
         }
-        Ok(self.observe_all())
+        self.observe_all()
     }
 
     /// Resets world `e` alone, optionally from an explicit layout (whose agent counts must
@@ -320,12 +323,13 @@ impl BatchEnv {
         let mut slot = env_slot(&self.params, sd, ep, layout)?;
         slot.world.track_laws = self.track_laws;
         self.slots[e] = slot;
-        Ok(self.observe_all())
+        self.observe_all()
     }
 
-    /// Observations of the current states (as a reset returns them): obs and infos filled,
-    /// rewards zero, no episode end.
-    pub fn observe_all(&mut self) -> StepOutput {
+    /// Observations of the current states (as a reset returns them): obs, infos and (with
+    /// [`Self::set_with_state`]) states filled, rewards zero, no episode end. Fails where a
+    /// state cannot be written ([`Self::state`]'s error).
+    pub fn observe_all(&mut self) -> Result<StepOutput> {
         let (mut out, lens) = self.alloc();
         let e = self.slots.len();
         let (n, m) = (self.n_wolves(), self.n_targets());
@@ -348,7 +352,13 @@ impl BatchEnv {
         // SAFETY: every world's task zeroed its pieces of the observation arrays
         // (`OutPieces::world`), and the pieces tile them.
         unsafe { lens.set(&mut out) };
-        out
+        if self.with_state {
+            let d = self.state_dim();
+            for (s, row) in self.slots.iter().zip(out.state.chunks_mut(d)) {
+                crate::state::write_state(&s.world, &self.params, row)?;
+            }
+        }
+        Ok(out)
     }
 
     /// Checks an action array of one side: its length and that every entry is finite. The
@@ -551,6 +561,9 @@ fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Lea
         s.respawn(params, s.episode + 1, track)?;
     }
     write_obs(s, o.obs_w, o.obs_t);
+    if !o.state.is_empty() {
+        crate::state::write_state(&s.world, p, o.state)?;
+    }
     Ok(())
 }
 

@@ -26,9 +26,12 @@ pub struct StepOutput {
     /// Last observation of an episode that ended this step (autoreset only; zeros elsewhere).
     pub final_obs_wolves: Vec<f32>,
     pub final_obs_targets: Vec<f32>,
-    /// [E, S]: the global state ([`crate::state`]) of a world whose episode ended this step,
-    /// before its reset (autoreset with [`BatchEnv::set_final_state`] only; zeros elsewhere):
-    /// what a centralised critic bootstraps from when the episode was truncated.
+    /// [E, S] with [`BatchEnv::set_with_state`]: every world's global state ([`crate::state`])
+    /// after this reset or step (and its autoreset), written by the world's own task.
+    pub state: Vec<f32>,
+    /// [E, S]: the global state of a world whose episode ended this step, before its reset
+    /// (autoreset with [`BatchEnv::set_with_state`] only; zeros elsewhere): what a centralised
+    /// critic bootstraps from when the episode was truncated.
     pub final_state: Vec<f32>,
     /// Infos of the episode this step belongs to (the finished one on an autoreset).
     /// `[E]`: `Outcome` as 0 running, 1 captured, 2 collision, 3 timeout, 4 cornered.
@@ -69,6 +72,7 @@ pub(super) struct SlotOut<'a> {
     pub(super) fin_w: &'a mut [f32],
     pub(super) fin_t: &'a mut [f32],
     pub(super) fin_s: &'a mut [f32],
+    pub(super) state: &'a mut [f32],
     pub(super) outcome: &'a mut u8,
     pub(super) steps: &'a mut u32,
     pub(super) capture_step: &'a mut [i64],
@@ -123,7 +127,8 @@ impl BatchEnv {
             truncated: vec![false; e],
             final_obs_wolves: if self.autoreset { vec![0.0; e * dw] } else { Vec::new() },
             final_obs_targets: if self.autoreset { vec![0.0; e * dt] } else { Vec::new() },
-            final_state: if self.autoreset && self.final_state { vec![0.0; e * self.state_dim()] } else { Vec::new() },
+            state: if self.with_state { vec![0.0; e * self.state_dim()] } else { Vec::new() },
+            final_state: if self.autoreset && self.with_state { vec![0.0; e * self.state_dim()] } else { Vec::new() },
             outcome: vec![0; e],
             steps: vec![0; e],
             capture_step: vec![-1; e * m],
@@ -148,6 +153,7 @@ pub(super) struct OutPieces<'a> {
     fin_w: Disjoint<'a, f32>,
     fin_t: Disjoint<'a, f32>,
     fin_s: Disjoint<'a, f32>,
+    state: Disjoint<'a, f32>,
     outcome: Disjoint<'a, u8>,
     steps: Disjoint<'a, u32>,
     capture_step: Disjoint<'a, i64>,
@@ -155,8 +161,8 @@ pub(super) struct OutPieces<'a> {
     energy: Disjoint<'a, f64>,
     collisions: Disjoint<'a, u32>,
     distance: Disjoint<'a, f64>,
-    /// Per world: obs, rewards and final obs of each side; final state; targets; agents.
-    per: [usize; 9],
+    /// Per world: obs, rewards and final obs of each side; final state; state; targets; agents.
+    per: [usize; 10],
 }
 
 impl<'a> OutPieces<'a> {
@@ -165,7 +171,8 @@ impl<'a> OutPieces<'a> {
     pub(super) fn new(o: &'a mut StepOutput, lens: ObsLens, e: usize, n: usize, m: usize) -> Self {
         let per = |v: usize| v.checked_div(e).unwrap_or(0);
         let [dw, dt] = lens.0.map(per);
-        let per = [dw, dt, per(o.rewards_wolves.len()), per(o.rewards_targets.len()), per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()), per(o.final_state.len()), m, n + m];
+        let per =
+            [dw, dt, per(o.rewards_wolves.len()), per(o.rewards_targets.len()), per(o.final_obs_wolves.len()), per(o.final_obs_targets.len()), per(o.final_state.len()), per(o.state.len()), m, n + m];
         let unfilled = |v: &'a mut Vec<f32>, len: usize| Disjoint::new(&mut v.spare_capacity_mut()[..len]);
         Self {
             obs_w: unfilled(&mut o.obs_wolves, lens.0[0]),
@@ -177,6 +184,7 @@ impl<'a> OutPieces<'a> {
             fin_w: Disjoint::new(&mut o.final_obs_wolves),
             fin_t: Disjoint::new(&mut o.final_obs_targets),
             fin_s: Disjoint::new(&mut o.final_state),
+            state: Disjoint::new(&mut o.state),
             outcome: Disjoint::new(&mut o.outcome),
             steps: Disjoint::new(&mut o.steps),
             capture_step: Disjoint::new(&mut o.capture_step),
@@ -195,7 +203,7 @@ impl<'a> OutPieces<'a> {
     /// No other reference to world `i`'s pieces may be alive while these are.
     #[inline]
     pub(super) unsafe fn world(&self, i: usize) -> SlotOut<'a> {
-        let [dw, dt, rw, rt, fw, ft, fs, m, agents] = self.per;
+        let [dw, dt, rw, rt, fw, ft, fs, st, m, agents] = self.per;
         let zeroed = |piece: &'a mut [MaybeUninit<f32>]| {
             piece.fill(MaybeUninit::new(0.0));
             // SAFETY: every element was just written; MaybeUninit<f32> has f32's layout.
@@ -213,6 +221,7 @@ impl<'a> OutPieces<'a> {
                 fin_w: self.fin_w.piece(i, fw),
                 fin_t: self.fin_t.piece(i, ft),
                 fin_s: self.fin_s.piece(i, fs),
+                state: self.state.piece(i, st),
                 outcome: self.outcome.item(i),
                 steps: self.steps.item(i),
                 capture_step: self.capture_step.piece(i, m),
