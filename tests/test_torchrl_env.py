@@ -141,3 +141,34 @@ def test_batch_with_state_returns_the_state_and_the_final_state():
     kept = wolfpack.BatchEnv(num_envs=2, autoreset=False, with_state=True)
     out = kept.step(np.zeros((2, 5, 2), np.float32))
     assert "final_state" not in out and np.array_equal(out["state"], kept.state())
+
+
+def test_the_cheap_step_and_reset_builds_what_torchrls_generic_one_builds():
+    # TorchRL's own step_and_maybe_reset (a step, step_mdp, then a partial reset merged entry by
+    # entry) on one batch, the view's on a twin: the same tensordicts, step after step, through
+    # many episode ends.
+    from torchrl.envs import EnvBase
+
+    def make():
+        env = WolfpackEnv(num_envs=8, learners="all", **{"world.max_steps": 7})
+        env.set_seed(2)
+        return env, env.reset()
+
+    (generic, a), (cheap, b) = make(), make()
+    rng = np.random.default_rng(1)
+    ended = 0
+    for t in range(40):
+        acts = {"wolves": torch.from_numpy(fixed_actions(rng, 8, 5)), "targets": torch.from_numpy(fixed_actions(rng, 8, 1))}
+        for td in (a, b):
+            for side, act in acts.items():
+                td[side, "action"] = act
+        da, a = EnvBase.step_and_maybe_reset(generic, a)
+        db, b = cheap.step_and_maybe_reset(b)
+        ended += int(da["next", "done"].sum())
+        assert set(da.keys(True, True)) == set(db.keys(True, True)), t
+        assert set(a.keys(True, True)) == set(b.keys(True, True)), t
+        for key in da.keys(True, True):
+            assert torch.equal(da[key], db[key]), (t, key)
+        for key in a.keys(True, True):
+            assert torch.equal(a[key], b[key]), (t, key)
+    assert ended >= 8 * 5
