@@ -32,19 +32,9 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peers import machine_info  # noqa: E402
+from under_load import rate as batch_rate  # noqa: E402  (the same timing of BatchEnv.step)
 from wolfpack import BatchEnv  # noqa: E402
 from wolfpack.torchrl_env import WolfpackEnv  # noqa: E402
-
-
-def batch_rate(env: BatchEnv, actions: np.ndarray, seconds: float) -> float:
-    """env-steps/s of ``env.step(actions)`` over about ``seconds`` (after warm-up steps)."""
-    for _ in range(3):
-        env.step(actions)
-    calls, start = 0, time.perf_counter()
-    while (elapsed := time.perf_counter() - start) < seconds:
-        env.step(actions)
-        calls += 1
-    return calls * env.num_envs / elapsed
 
 
 def view_rate(env: WolfpackEnv, td, actions: torch.Tensor, seconds: float):

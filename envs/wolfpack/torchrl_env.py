@@ -122,7 +122,7 @@ class WolfpackEnv(EnvBase):
             self._seed = None  # a later full reset starts each world's next episode
             self._just_ended[:] = False
             self._current = self._view(out, fresh=self._just_ended)
-            return self._td(self._current, ended=None)
+            return self._td(self._current)
         # The worlds that just ended were reset within their step: their first observations are
         # in self._current. A world asked to reset in the middle of an episode starts afresh;
         # the output of its reset_world holds every world as it is now.
@@ -132,7 +132,7 @@ class WolfpackEnv(EnvBase):
         if len(afresh):
             self._current = self._view(out, fresh=np.zeros(self.batch.num_envs, dtype=bool))
         self._just_ended &= ~which
-        return self._td(self._current, ended=None)
+        return self._td(self._current)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         actions = {side: self._actions(tensordict, side) for side in self.groups}
@@ -142,7 +142,7 @@ class WolfpackEnv(EnvBase):
         current = self._view(out, fresh=ended)
         self._current = current
         if not ended.any():
-            return self._td(current, ended=ended, out=out)
+            return self._td(current, out)
         # "next" holds what each ended episode ended in; self._current keeps the fresh starts.
         last = dict(current)
         for side in self.groups:
@@ -154,7 +154,7 @@ class WolfpackEnv(EnvBase):
         last["state"] = torch.from_numpy(state)
         if "targets" in self.groups:
             last["targets.mask"] = torch.from_numpy(out["capture_step"] < 0)
-        return self._td(last, ended=ended, out=out)
+        return self._td(last, out)
 
     def step_and_maybe_reset(self, tensordict: TensorDictBase) -> tuple[TensorDictBase, TensorDictBase]:
         """TorchRL's step-then-reset (what its collectors and ``rollout`` call), made cheap: the
@@ -220,9 +220,11 @@ class WolfpackEnv(EnvBase):
                 entries[side, flag] = torch.zeros(e, self._agents[side], 1, dtype=torch.bool)
         return entries
 
-    def _td(self, view: dict[str, torch.Tensor], ended: np.ndarray | None, out: dict | None = None) -> TensorDictBase:
+    def _td(self, view: dict[str, torch.Tensor], out: dict | None = None) -> TensorDictBase:
+        """The tensordict of ``view``: after a step with its output ``out`` (rewards, done flags,
+        outcomes), else after a reset (no episode ended, no rewards)."""
         e = self.batch.num_envs
-        if ended is None:
+        if out is None:
             terminated = truncated = torch.zeros(e, 1, dtype=torch.bool)
             outcome = torch.zeros(e, 1, dtype=torch.int64)
         else:
