@@ -4,7 +4,8 @@
 For each trainer and training seed, one time-limited run from scratch on the documented
 scenario (see BENCHMARKS.md, "Learning"):
 
-- **native**: ``wolfpack train --side SIDE --algo ALGO`` with its default recipe;
+- **native**: ``wolfpack train --side SIDE --algo ALGO`` with its default recipe, or with the
+  ``--hp KEY=VALUE`` changes given here (recorded in the JSON as ``native_hp``);
 - **sb3**: ``training/train.py --side SIDE --algo ppo`` (SB3's PPO on ``make_vec_env``, the
   hyperparameters of ``training/hyperparams.yaml``).
 
@@ -53,9 +54,13 @@ TRAINERS = ("native", "sb3")
 PINNED_CORES = 2
 
 
-def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: Path, evaluations: int, eval_episodes: int, device: str, pinned: bool = False) -> list[str]:
+def command(trainer: str, args: argparse.Namespace, seed: int, out: Path, pinned: bool = False) -> list[str]:
+    """The command line of one run: ``trainer`` on ``args``' side and budget, training seed
+    ``seed``, its folder ``out``; ``pinned``: two batch and two torch threads (``--parallel``)."""
+    side, minutes, evaluations, eval_episodes = args.side, args.minutes, args.evaluations, args.eval_episodes
     if trainer == "native":
         threads = ["--threads", str(PINNED_CORES), "--torch-threads", str(PINNED_CORES)] if pinned else []
+        overrides = [part for hp in args.hp for part in ("--hp", hp)]
         return [
             sys.executable,
             "-m",
@@ -64,7 +69,7 @@ def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: 
             "--side",
             side,
             "--algo",
-            algo,
+            args.algo,
             "--seed",
             str(seed),
             "--time-limit",
@@ -74,11 +79,12 @@ def command(trainer: str, side: str, algo: str, seed: int, minutes: float, out: 
             "--eval-episodes",
             str(eval_episodes),
             "--device",
-            device,
+            args.device,
             "--out",
             str(out),
             "--no-progress",
             *threads,
+            *overrides,
         ]
     # SB3's budget is in timesteps: a ceiling it never reaches in the time limit, and held-out
     # evaluations at the same count per run as the native trainer's, from its measured rate.
@@ -195,7 +201,7 @@ def run_jobs(jobs: list[tuple[str, int]], folders: dict, args: argparse.Namespac
                 trainer, seed = pending.pop(0)
                 out = folders[(trainer, seed)]
                 slot = free.pop(0)
-                cmd = command(trainer, args.side, args.algo, seed, args.minutes, out, args.evaluations, args.eval_episodes, args.device, pinned)
+                cmd = command(trainer, args, seed, out, pinned)
                 where = f" on cores {slot}" if pinned else ""
                 print(f"[{time.strftime('%H:%M:%S')}] {trainer} seed {seed}{where}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
                 log = tempfile.TemporaryFile(mode="w+")
@@ -232,6 +238,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--evaluations", type=int, default=30, help="held-out evaluations per run (default 30)")
     p.add_argument("--eval-episodes", type=int, default=200, help="episodes per held-out evaluation (default 200)")
     p.add_argument("--device", default="cpu", help="the native trainer's --device (default cpu)")
+    p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], help="a change to the native trainer's recipe, passed on to wolfpack train (repeatable)")
     p.add_argument("--keep", default=None, metavar="DIR", help="keep every run's folder under DIR (default: a temporary folder)")
     p.add_argument("--json", action="store_true", help="print the JSON document instead of the table")
     p.add_argument("--out", default=None, help="also write the JSON document here")
@@ -245,6 +252,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = {
         "side": args.side,
         "algo": args.algo,
+        "native_hp": args.hp,
         "minutes": args.minutes,
         "seed_list": seeds,
         "evaluations": args.evaluations,
