@@ -30,7 +30,10 @@ import sys
 import textwrap
 import time
 
-LAWS = ("seed000", "bvc", "formation")
+from wolfpack import _core
+
+#: Every scripted wolf law, as the core names them.
+LAWS = tuple(_core.WOLF_LAWS)
 
 
 def rss_mb(pid: int | str = "self") -> float | None:

@@ -13,6 +13,13 @@ OUTCOMES: tuple[str, ...]
 #: The scripted laws of each side, as ``policies.wolves`` / ``policies.targets`` take them.
 WOLF_LAWS: tuple[str, ...]
 TARGET_LAWS: tuple[str, ...]
+#: The values of ``learners=``.
+LEARNERS: tuple[str, ...]
+#: The renderer's RGB colours (``wolfpack_core::render``).
+WOLF_COLOURS: tuple[tuple[int, int, int], ...]
+TARGET_COLOUR: tuple[int, int, int]
+STATIC_OBSTACLE_COLOUR: tuple[int, int, int]
+MOVING_OBSTACLE_COLOUR: tuple[int, int, int]
 
 def default_params() -> dict[str, Any]:
     """The documented scenario's parameters (``capture.count`` null: derived as ⌈0.8 N⌉)."""
@@ -73,16 +80,12 @@ class BatchEnv:
         """Resets every world (world i seeded ``seed + i``, else its next episode)."""
     def reset_world(self, index: int, seed: int | None = None, layout: dict[str, Any] | None = None) -> dict[str, Any]:
         """Resets one world, optionally seeded and from a LAYOUT."""
-    def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, Any]:
-        """One step; float32 C-contiguous actions [E, N, 2] / [E, M, 2] for the learning sides."""
-    def try_step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, Any] | None:
-        """``step`` when the actions are exactly what it takes (float32, C-contiguous, the right
-        shapes, for exactly the learning sides); else None, and nothing moves."""
-    def step_slots(self, actions: Any) -> tuple[Any, Any, Any, dict[str, Any], Any] | None:
-        """For the SB3 VecEnv: one step from per-slot actions, float32 C-contiguous [E*K, 2]
-        (None, nothing moving, for anything else). (obs, rewards [E*K], dones [E*K], infos,
-        final_obs or None when no world ended); obs [E*K, D], or (obs_wolves, obs_targets)
-        when both sides learn."""
+    def new_outputs(self) -> dict[str, Any]:
+        """Zeroed output arrays of this batch's shapes (the keys ``step`` returns)."""
+    def step(self, wolf_actions: Any = None, target_actions: Any = None, out: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The one step call: actions [E, N, 2] / [E, M, 2] for the learning sides (float32
+        C-contiguous used as is, other floating arrays converted); outputs written into
+        ``out`` (from ``new_outputs``) and returned, or into a new dict."""
     def expert_actions(self) -> tuple[Any, Any]:
         """The scripted laws' actions for the learning sides (None for the others)."""
     def observe(self) -> dict[str, Any]:

@@ -1,8 +1,9 @@
 """The native batch: ``E`` worlds stepped together in Rust, the engine behind every adapter.
 
 :class:`BatchEnv` is the fastest way to roll out wolfpack: one call steps all worlds on a
-thread pool with the GIL released, the scripted side runs inside the core, and every output is
-a fresh numpy array. The PettingZoo, Gymnasium and SB3 environments are thin views of it.
+thread pool with the GIL released, the scripted side runs inside the core, and the outputs land
+in fresh numpy arrays or in the caller's own (``step(out=...)``). The PettingZoo, Gymnasium and
+SB3 environments are thin views of it.
 Observations, actions and rewards are documented in :mod:`wolfpack.parallel_env`.
 """
 
@@ -20,7 +21,7 @@ from wolfpack.config import apply_overrides, check_tree, load_params
 from wolfpack.opponents import Opponent, as_opponent, drivers, opponent_side
 from wolfpack.task import task_params
 
-LEARNERS = ("wolves", "targets", "all", "none")
+LEARNERS: tuple[str, ...] = tuple(_core.LEARNERS)
 
 #: The outcome codes → names, for :meth:`BatchEnv.step`'s ``outcome`` array and every env's
 #: ``infos[...]["outcome"]``: 0 ``running``, 1 ``captured`` (every target captured), 2
@@ -159,17 +160,6 @@ def check_learners(learners: str) -> str:
     return learners
 
 
-def as_actions(x: Any, what: str, shape: tuple[int, ...]) -> np.ndarray:
-    """An action array as C-contiguous float32 of ``shape``; ValueError naming ``what`` when the
-    shape or dtype is wrong (non-finite values are caught by the core, which names the agent)."""
-    a = np.asarray(x)
-    if a.dtype.kind != "f":
-        raise ValueError(f"{what}: actions must be floating point, got dtype {a.dtype}")
-    if a.shape != shape:
-        raise ValueError(f"{what}: expected shape {shape}, got {a.shape}")
-    return np.ascontiguousarray(a, dtype=np.float32)
-
-
 def check_action(x: Any, who: str) -> np.ndarray:
     """One agent's action as an array of shape (2,) and a floating dtype; ValueError naming
     ``who`` otherwise. (Non-finite values are caught by the core, which names the agent.)"""
@@ -284,7 +274,8 @@ class BatchEnv:
     TypeError; a bad value (a seed out of range, ``num_envs < 1``, ``threads=0``, a flag that is
     not True or False, a bad params key) is a ValueError naming it.
 
-    :meth:`reset` and :meth:`step` return a dict of fresh arrays: ``obs_wolves`` [E, N, Dw]
+    :meth:`reset` and :meth:`step` return a dict of fresh arrays (or, with ``step(out=...)``,
+    the caller's arrays from :meth:`new_outputs`, written in place): ``obs_wolves`` [E, N, Dw]
     (when wolves learn), ``obs_targets`` [E, M, Dt] (when targets learn), ``rewards_wolves``
     [E, N] and ``rewards_targets`` [E, M] (both sides always, the scripted one too, so that
     evaluations can report its return), ``terminated`` / ``truncated`` [E] bool,
@@ -344,7 +335,7 @@ class BatchEnv:
         self._learned_side = self._learned_opponent_side
         if self._learned_opponent_side is not None:
             # The worlds exist from construction on (a step before any reset is allowed).
-            self._opponent_obs = self._pop_opponent_obs(self._core.observe())
+            self._opponent_obs = self._split_opponent(self._core.observe())[1]
 
     # --- the opponent -------------------------------------------------------------------------
 
@@ -379,20 +370,22 @@ class BatchEnv:
         if self._learned_opponent_side is None:
             self._opponent_obs = None
         elif core_learners != before:  # its side was scripted until now: read its observations
-            self._opponent_obs = self._pop_opponent_obs(self._core.observe())
+            self._opponent_obs = self._split_opponent(self._core.observe())[1]
 
     @property
     def _learned_opponent_side(self) -> str | None:
         """The side a learned opponent drives from Python (None: none, or a law in the core)."""
         return self.opponent_side if self.opponent is not None and self.opponent.learned else None
 
-    def _pop_opponent_obs(self, out: dict) -> np.ndarray | None:
-        """Takes the opponent side's observations out of a core output (and its final ones)."""
+    def _split_opponent(self, out: dict) -> tuple[dict, np.ndarray | None]:
+        """A core output as (the user's outputs, the learned opponent's observations or None):
+        the opponent side's observation arrays (current and final) are left out of a new dict,
+        and ``out`` itself is not changed (it may be the caller's ``out=`` buffers)."""
         side = self._learned_opponent_side
         if side is None:
-            return None
-        out.pop(f"final_obs_{side}", None)
-        return out.pop(f"obs_{side}")
+            return out, None
+        hidden = (f"obs_{side}", f"final_obs_{side}")
+        return {k: v for k, v in out.items() if k not in hidden}, out[f"obs_{side}"]
 
     def _opponent_actions(self) -> np.ndarray:
         """One batched call: the opponent's actions for all its agents in all worlds."""
@@ -415,8 +408,7 @@ class BatchEnv:
     def reset(self, seed: int | None = None) -> dict[str, np.ndarray]:
         """Resets every world; with ``seed``, world i is re-seeded ``seed + i`` (so ``seed +
         num_envs - 1`` must be < 2**64)."""
-        out = self._core.reset(check_seed(seed, span=self.num_envs, optional=True))
-        self._opponent_obs = self._pop_opponent_obs(out)
+        out, self._opponent_obs = self._split_opponent(self._core.reset(check_seed(seed, span=self.num_envs, optional=True)))
         return out
 
     def state(self) -> np.ndarray:
@@ -434,44 +426,42 @@ class BatchEnv:
         seed = check_seed(seed, optional=True)
         if layout is not None:
             check_tree(layout, "layout")
-        out = self._core.reset_world(index, seed, layout)
-        fresh = self._pop_opponent_obs(out)
+        out, fresh = self._split_opponent(self._core.reset_world(index, seed, layout))
         if fresh is not None and self._opponent_obs is not None:
             self._opponent_obs[index] = fresh[index]
         elif fresh is not None:
             self._opponent_obs = fresh
         return out
 
-    def step(self, wolf_actions: Any = None, target_actions: Any = None) -> dict[str, np.ndarray]:
+    def new_outputs(self) -> dict[str, np.ndarray]:
+        """Zeroed output arrays of this batch's shapes, keyed as :meth:`step` returns them: what
+        ``step(out=...)`` writes into, step after step, without allocating. With a learned
+        opponent they also hold its side's observations, which :meth:`step` writes (the
+        opponent acts from them) and leaves out of what it returns."""
+        return self._core.new_outputs()
+
+    def step(self, wolf_actions: Any = None, target_actions: Any = None, *, out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
         """Steps every world. Actions [E, N, 2] / [E, M, 2] in [-1, 1] (clipped), for (and only
-        for) the learning sides."""
-        if self._learned_side is None:
-            # The fast path: actions exactly as the core takes them (float32, C-contiguous, of
-            # the right shapes, given for exactly the learning sides) go straight in, with no
-            # check here that could fail. Anything else comes back as None with nothing moved
-            # and takes the checked path below, which converts or names the problem.
-            out = self._core.try_step(wolf_actions, target_actions)
-            if out is not None:
-                return out
-        wa = as_actions(wolf_actions, "wolf actions", (self.num_envs, self.n_wolves, 2)) if wolf_actions is not None else None
-        ta = as_actions(target_actions, "target actions", (self.num_envs, self.n_targets, 2)) if target_actions is not None else None
-        if self.learns_wolves and wa is None:
-            raise ValueError("wolf actions are required: wolves are learners here")
-        if self.learns_targets and ta is None:
-            raise ValueError("target actions are required: targets are learners here")
-        if not self.learns_wolves and wa is not None:
-            raise ValueError("wolf actions given, but the wolves are not learners here")
-        if not self.learns_targets and ta is not None:
-            raise ValueError("target actions given, but the targets are not learners here")
-        side = self._learned_opponent_side
-        if side is not None:
-            if side == "wolves":
-                wa = self._opponent_actions()
-            else:
-                ta = self._opponent_actions()
-        out = self._core.step(wa, ta)
-        self._opponent_obs = self._pop_opponent_obs(out)
-        return out
+        for) the learning sides; float32 C-contiguous arrays go to the core as they are, other
+        floating arrays are converted.
+
+        Returns the outputs in new arrays, or, with ``out`` (from :meth:`new_outputs`), writes
+        them into its arrays and returns a dict of them: no allocation, but each step
+        overwrites the last, so copy what must outlive it. Nothing moves, and ``out`` is
+        untouched, when the actions or ``out`` are wrong (ValueError naming them)."""
+        side = self._learned_side
+        if side is None:
+            return self._core.step(wolf_actions, target_actions, out)
+        # A learned opponent acts from Python, from the observations of the last step.
+        given, plural = (wolf_actions, "wolf") if side == "wolves" else (target_actions, "target")
+        if given is not None:
+            raise ValueError(f"{plural} actions given, but the {side} are not learners here")
+        if side == "wolves":
+            wolf_actions = self._opponent_actions()
+        else:
+            target_actions = self._opponent_actions()
+        res, self._opponent_obs = self._split_opponent(self._core.step(wolf_actions, target_actions, out))
+        return res
 
     def expert_actions(self) -> tuple[np.ndarray | None, np.ndarray | None]:
         """The scripted laws' actions for the learning sides, in their action space."""

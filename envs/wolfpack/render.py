@@ -30,11 +30,11 @@ DEFAULT_HEIGHT = 512
 #: Default trail length (steps).
 DEFAULT_TRAIL = 40
 
-#: RGB colours, as the core draws them (render.rs).
-WOLF_COLOURS = [(31, 119, 180), (44, 160, 44), (148, 103, 189), (255, 127, 14), (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207)]
-TARGET_COLOUR = (214, 39, 40)
-STATIC_OBSTACLE_COLOUR = (90, 90, 90)
-MOVING_OBSTACLE_COLOUR = (176, 122, 72)
+#: RGB colours, as the core draws them (read from it).
+WOLF_COLOURS: list[tuple[int, int, int]] = [tuple(c) for c in _core.WOLF_COLOURS]
+TARGET_COLOUR: tuple[int, int, int] = tuple(_core.TARGET_COLOUR)
+STATIC_OBSTACLE_COLOUR: tuple[int, int, int] = tuple(_core.STATIC_OBSTACLE_COLOUR)
+MOVING_OBSTACLE_COLOUR: tuple[int, int, int] = tuple(_core.MOVING_OBSTACLE_COLOUR)
 MIN_BODY_PIXELS = 9.0
 
 

@@ -120,6 +120,7 @@ class WolfpackVecEnv(VecEnv):
         n, m = self.batch.n_wolves, self.batch.n_targets
         self.per_world = {"wolves": n, "targets": m, "all": n + m}[learners]
         self._side = learners
+        self._obs_key, self._rewards_key = f"obs_{learners}", f"rewards_{learners}"
         self._offset = n if learners == "targets" else 0
         self._agents = ([f"wolf_{i}" for i in range(n)] if learners != "targets" else []) + ([f"target_{j}" for j in range(m)] if learners != "wolves" else [])
         self._views = [_SlotView(self, e, a) for e in range(self.worlds) for a in self._agents]
@@ -127,12 +128,7 @@ class WolfpackVecEnv(VecEnv):
         dim = {"wolves": self.batch.wolf_obs_dim, "targets": self.batch.target_obs_dim, "all": self._shared.dim if self._shared else 0}[learners]
         self._next_seed: int | None = seed
         self._actions: np.ndarray | None = None
-        #: The last step's (or reset's) numeric infos as the BatchEnv returns them, one row per
-        #: world: ``outcome`` [E], ``steps`` [E], ``capture_step`` / ``cornered_step`` [E, M],
-        #: ``energy`` / ``collisions`` / ``distance`` [E, N+M] (wolves, then targets),
-        #: ``terminated`` / ``truncated`` [E] (for a world that ended and was reset in this
-        #: step: its finished episode's values).
-        self.step_infos: dict[str, np.ndarray] = {}
+        self._last_out: Mapping[str, np.ndarray] = {}
         super().__init__(self.worlds * self.per_world, observation_box(dim), action_box())
 
     def __reduce__(self):
@@ -148,6 +144,15 @@ class WolfpackVecEnv(VecEnv):
         (:meth:`wolfpack.BatchEnv.set_opponent`)."""
         self.batch.set_opponent(opponent)
 
+    @property
+    def step_infos(self) -> dict[str, np.ndarray]:
+        """The last step's (or reset's) numeric infos as the BatchEnv returns them, one row per
+        world: ``outcome`` [E], ``steps`` [E], ``capture_step`` / ``cornered_step`` [E, M],
+        ``energy`` / ``collisions`` / ``distance`` [E, N+M] (wolves, then targets),
+        ``terminated`` / ``truncated`` [E] (for a world that ended and was reset in this step:
+        its finished episode's values). Built when asked for, not every step."""
+        return {k: self._last_out[k] for k in _STEP_INFO_KEYS} if self._last_out else {}
+
     def slot_of(self, world_index: int, agent: str) -> int:
         return world_index * self.per_world + self._agents.index(agent)
 
@@ -162,7 +167,7 @@ class WolfpackVecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         out = self.batch.reset(self._next_seed)
         self._next_seed = None
-        self.step_infos = {k: out[k] for k in _STEP_INFO_KEYS}
+        self._last_out = out
         self.reset_infos = self._slot_infos(out)
         return self._obs(out)
 
@@ -180,26 +185,34 @@ class WolfpackVecEnv(VecEnv):
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async()")
         actions, self._actions = self._actions, None
-        if self.batch._learned_side is not None:  # a learned opponent acts from Python first
-            return self._step_through_batch(actions)
-        # One call into Rust: the slots' observations, rewards and dones come back as this
-        # VecEnv returns them (fresh arrays), the numeric infos as BatchEnv.step has them.
-        step_slots = self.batch._core.step_slots
+        # One BatchEnv step (which runs a learned opponent first, if any) into new arrays: SB3
+        # keeps the observations, rewards and dones it is given past the next step.
+        per_world = actions.reshape(self.worlds, self.per_world, 2)
+        n = self.batch.n_wolves
         try:
-            res = step_slots(actions)
-            if res is None:  # not float32 or not C-contiguous (the shape was checked)
-                res = step_slots(np.ascontiguousarray(actions, dtype=np.float32))
+            if self._side == "wolves":
+                out = self.batch.step(per_world, None)
+            elif self._side == "targets":
+                out = self.batch.step(None, per_world)
+            else:
+                out = self.batch.step(per_world[:, :n], per_world[:, n:])
         except ValueError:
             self._check_finite(actions)
             raise
-        obs, rewards, dones, self.step_infos, final_obs = res
-        if self._shared is not None:
-            obs = self._flat(self._shared.pack(*obs))
+        # Reshapes and one `|` only: this is the whole per-step cost of the SB3 layout, so
+        # method calls and numpy's dispatching functions (np.repeat, ndarray.any) are avoided.
+        if self._shared is None:
+            obs = out[self._obs_key].reshape(self.num_envs, -1)
+            rewards = out[self._rewards_key].ravel()
+        else:
+            obs = self._obs(out)
+            rewards = np.concatenate([out["rewards_wolves"], out["rewards_targets"]], axis=1).ravel()
+        done_world = out["terminated"] | out["truncated"]
+        dones = done_world if self.per_world == 1 else done_world.repeat(self.per_world)
+        self._last_out = out
         infos: list[Mapping[str, Any]] = [RUNNING_INFO] * self.num_envs
-        if final_obs is not None:  # some world ended this step
-            if self._shared is not None:
-                final_obs = self._flat(self._shared.pack(*final_obs))
-            self._fill_ended_infos(infos, self.step_infos, final_obs)
+        if np.count_nonzero(done_world):
+            self._fill_ended_infos(infos, out, self._obs(out, "final_obs"))
         return obs, rewards, dones, infos
 
     def _check_finite(self, actions: np.ndarray) -> None:
@@ -207,30 +220,6 @@ class WolfpackVecEnv(VecEnv):
         if not np.isfinite(actions).all():
             k = int(np.argmax(~np.isfinite(actions).all(axis=1)))
             raise ValueError(f"action of slot {k} ({self._views[k].agent} in world {self._views[k].world_index}) is not finite: {actions[k].tolist()}") from None
-
-    def _step_through_batch(self, actions: np.ndarray):
-        """step_wait through BatchEnv.step, which runs a learned opponent."""
-        self._check_finite(actions)
-        actions = actions.reshape(self.worlds, self.per_world, 2)
-        n = self.batch.n_wolves
-        if self._side == "wolves":
-            out = self.batch.step(actions, None)
-        elif self._side == "targets":
-            out = self.batch.step(None, actions)
-        else:
-            out = self.batch.step(actions[:, :n], actions[:, n:])
-        obs = self._obs(out)
-        if self._side == "all":
-            rewards = np.concatenate([out["rewards_wolves"], out["rewards_targets"]], axis=1).reshape(-1).astype(np.float32, copy=False)
-        else:
-            rewards = out[f"rewards_{self._side}"].reshape(-1).astype(np.float32, copy=False)
-        done_world = out["terminated"] | out["truncated"]
-        dones = np.repeat(done_world, self.per_world)
-        self.step_infos = {k: out[k] for k in _STEP_INFO_KEYS}
-        infos: list[Mapping[str, Any]] = [RUNNING_INFO] * self.num_envs
-        if done_world.any():
-            self._fill_ended_infos(infos, self.step_infos, self._obs(out, "final_obs"))
-        return obs, rewards, dones, infos
 
     def close(self) -> None:
         pass

@@ -27,16 +27,19 @@ def scripted(law: str, episodes: int) -> None:
     print(f"  hunt {law}: {episodes} episodes, {sum(r['steps'] for r in results)} env-steps")
 
 
-def batch(learners: str, num_envs: int, steps: int) -> None:
-    env = wolfpack.BatchEnv(num_envs=num_envs, learners=learners, seed=1, threads=1)
+def batch(learners: str, num_envs: int, steps: int, into: bool = False, with_state: bool = False) -> None:
+    """``steps`` random steps; ``into``: into the caller's buffers (``step(out=...)``, the
+    trainer's way), else into new arrays."""
+    env = wolfpack.BatchEnv(num_envs=num_envs, learners=learners, seed=1, threads=1, with_state=with_state)
     env.reset()
+    out = env.new_outputs() if into else None
     rng = np.random.default_rng(0)
     n, m = env.n_wolves, env.n_targets
     for _ in range(steps):
         wolves = rng.uniform(-1, 1, (num_envs, n, 2)).astype(np.float32) if env.learns_wolves else None
         targets = rng.uniform(-1, 1, (num_envs, m, 2)).astype(np.float32) if env.learns_targets else None
-        env.step(wolves, targets)
-    print(f"  BatchEnv learners={learners} E={num_envs}: {steps} steps")
+        env.step(wolves, targets, out=out)
+    print(f"  BatchEnv learners={learners} E={num_envs}{' into buffers' if into else ''}: {steps} steps")
 
 
 def vec_env(num_envs: int, steps: int) -> None:
@@ -73,6 +76,7 @@ def main() -> None:
     batch("wolves", 1024, 100)
     batch("targets", 64, 500)
     batch("all", 64, 300)
+    batch("wolves", 256, 300, into=True, with_state=True)
     vec_env(64, 500)
     parallel(600)
     print(f"done in {time.perf_counter() - start:.0f} s")

@@ -142,7 +142,9 @@ class Trainer:
         self.opponents = opponents
         opponent = self._opponent() if opponents is None else opponents()
         world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
-        self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent)
+        # MAPPO's critic reads every world's state after every step: written by each world's
+        # own task in the step (with_state) rather than by a serial pass after it.
+        self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent, with_state=spec.algo == "mappo")
         for member in pool_members:  # every pool member fits these worlds, up front
             self.env._check_opponent_fits(member)
         self.learners: dict[str, SideLearner] = {}
@@ -269,6 +271,10 @@ class Trainer:
                 (self.out / "imitation.json").write_text(json.dumps(rounds, indent=1) + "\n")
                 critic_only = self.CRITIC_WARMUP_UPDATES
             out = self.env.reset()
+            # The step's outputs go into these arrays, step after step (the learners copy what
+            # they keep into their rollout buffers); made anew when the opponent changes, since
+            # a learned opponent's observations are among them.
+            buffers = self.env.new_outputs()
             ep_return = {side: np.zeros(self.num_envs) for side in spec.sides}
             while True:
                 train_s = time.perf_counter() - t_start - eval_s
@@ -278,13 +284,14 @@ class Trainer:
                 t0 = time.perf_counter()
                 if self.opponents is not None and rollouts > 0:
                     self.env.set_opponent(self.opponents())
+                    buffers = self.env.new_outputs()
                 rollouts += 1
                 outcomes = np.zeros(len(OUTCOMES), np.int64)
                 finished_returns: dict[str, list[float]] = {side: [] for side in spec.sides}
                 for t in range(self.n_steps):
-                    state = self.env.state() if spec.algo == "mappo" else None
+                    state = out.get("state")
                     actions = {side: learner.act(t, out[f"obs_{side}"], state) for side, learner in self.learners.items()}
-                    out = self.env.step(actions.get("wolves"), actions.get("targets"))
+                    out = self.env.step(actions.get("wolves"), actions.get("targets"), out=buffers)
                     done_np = out["terminated"] | out["truncated"]
                     done = torch.from_numpy(done_np)
                     for side, learner in self.learners.items():
@@ -296,7 +303,7 @@ class Trainer:
                         for side in spec.sides:
                             finished_returns[side].extend(ep_return[side][done_np].tolist())
                             ep_return[side][done_np] = 0.0
-                state = self.env.state() if spec.algo == "mappo" else None
+                state = out.get("state")
                 for side, learner in self.learners.items():
                     learner.finish_rollout(out[f"obs_{side}"], state)
                 t1 = time.perf_counter()

@@ -5,7 +5,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
+use wolfpack_core::batch::{BatchEnv, Learners, StepBuffers, StepOutput};
 use wolfpack_core::config::{ActionMode, WolfPolicy};
 use wolfpack_core::episode::run_episodes;
 use wolfpack_core::world::Outcome;
@@ -135,9 +135,8 @@ fn autoreset_keeps_the_final_observation_and_starts_a_new_episode() {
 
 #[test]
 fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did() {
-    // The final-observation arrays are allocated uninitialised and zeroed by each world's task;
-    // a world that skipped that would hand out the allocator's old bytes where the interface
-    // promises zeros (NaN here: see `Poisoned`).
+    // Each world's task writes its final-observation rows every step (zeros where its episode
+    // went on): a caller's buffers hold the last step's rows, which must not show through.
     let mut p = Params::default();
     p.world.max_steps = 3;
     let mut env = BatchEnv::new(p, 3, Learners::All, 0, true, Some(2)).unwrap();
@@ -160,6 +159,71 @@ fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did()
             assert!(ended.iter().all(|e| *e), "max_steps = 3 ends every episode at step 3");
         }
     }
+}
+
+/// `b` filled with what a forgotten write would show: NaN, true, all ones.
+fn poison(b: &mut StepBuffers) {
+    for v in [&mut *b.obs_wolves, &mut *b.obs_targets, &mut *b.rewards_wolves, &mut *b.rewards_targets, &mut *b.final_obs_wolves, &mut *b.final_obs_targets, &mut *b.state, &mut *b.final_state] {
+        v.fill(f32::NAN);
+    }
+    b.terminated.fill(true);
+    b.truncated.fill(true);
+    b.outcome.fill(u8::MAX);
+    b.steps.fill(u32::MAX);
+    b.collisions.fill(u32::MAX);
+    b.capture_step.fill(i64::MAX);
+    b.cornered_step.fill(i64::MAX);
+    b.energy.fill(f64::NAN);
+    b.distance.fill(f64::NAN);
+}
+
+#[test]
+fn every_output_written_into_the_callers_buffers_is_the_fresh_steps() {
+    // Poisoned buffers before every reset and step: an element some path forgets to write (a
+    // finished world's rewards without autoreset, a world's final rows on a step it went on)
+    // shows as NaN or all ones instead of the fresh step's value.
+    let mut p = Params::default();
+    p.world.max_steps = 6;
+    for (learners, autoreset) in [(Learners::Wolves, true), (Learners::Targets, false), (Learners::All, true), (Learners::None, false)] {
+        let mut fresh = BatchEnv::new(p.clone(), 5, learners, 2, autoreset, Some(2)).unwrap();
+        let mut into = BatchEnv::new(p.clone(), 5, learners, 2, autoreset, Some(2)).unwrap();
+        into.set_with_state(true);
+        fresh.set_with_state(true);
+        let mut owned = into.reset(Some(2)).unwrap();
+        let want = fresh.reset(Some(2)).unwrap();
+        let mut buffers = owned.buffers();
+        poison(&mut buffers);
+        into.reset_into(Some(2), &std::sync::atomic::AtomicBool::new(false), &mut buffers).unwrap();
+        fresh.reset(Some(2)).unwrap();
+        assert_eq!(bits(&owned), bits(&want), "{learners:?}: reset");
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let (n, m) = (fresh.n_wolves(), fresh.n_targets());
+        for t in 0..14 {
+            let wa = if learners.wolves() { random_actions(&mut rng, 5 * n * 2) } else { vec![] };
+            let ta = if learners.targets() { random_actions(&mut rng, 5 * m * 2) } else { vec![] };
+            let mut buffers = owned.buffers();
+            poison(&mut buffers);
+            into.step_into(&wa, &ta, &mut buffers).unwrap();
+            let want = fresh.step(&wa, &ta).unwrap();
+            let whole = |o: &StepOutput| {
+                (bits(o), o.state.iter().chain(&o.final_state).map(|x| x.to_bits()).collect::<Vec<_>>(), o.steps.clone(), o.collisions.clone(), o.capture_step.clone(), o.cornered_step.clone())
+            };
+            assert_eq!(whole(&owned), whole(&want), "{learners:?}, step {t}");
+        }
+    }
+}
+
+#[test]
+fn buffers_of_the_wrong_size_are_named_and_move_nothing() {
+    let mut env = BatchEnv::new(Params::default(), 3, Learners::Wolves, 0, true, Some(1)).unwrap();
+    let mut out = env.step(&[0.0; 30], &[]).unwrap();
+    out.energy.pop();
+    let e = env.step_into(&[0.0; 30], &[], &mut out.buffers()).unwrap_err().to_string();
+    assert!(e.contains("energy") && e.contains("expected 18"), "{e}");
+    assert_eq!(env.world(0).unwrap().t, 1);
+    let specs = env.output_specs();
+    assert_eq!(specs.iter().map(|s| s.name).collect::<Vec<_>>()[..3], ["obs_wolves", "obs_targets", "rewards_wolves"]);
+    assert!(specs.iter().find(|s| s.name == "obs_targets").unwrap().is_empty(), "targets are scripted here");
 }
 
 #[test]

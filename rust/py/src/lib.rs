@@ -10,13 +10,13 @@ use std::sync::mpsc::{channel, RecvTimeoutError};
 use std::time::Duration;
 
 use numpy::ndarray::{Array, IxDyn};
-use numpy::{IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray3, PyReadwriteArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pythonize::pythonize;
-use wolfpack_core::batch::{BatchEnv, Learners, StepOutput};
+use wolfpack_core::batch::{BatchEnv, Learners, OutputSpec, StepBuffers, StepOutput};
 use wolfpack_core::episode::{run_episodes_until, EpisodeResult, Trajectory};
 use wolfpack_core::render::{render, Scene};
 use wolfpack_core::world::{Layout, World};
@@ -335,103 +335,47 @@ fn run_episodes<'py>(
     Ok(out)
 }
 
-/// Actions of one side as a float32 [E, L, 2] array (any other dtype, shape or layout is a
-/// ValueError naming the side); `None` when absent.
-fn actions_from<'py>(obj: Option<&Bound<'py, PyAny>>, side: &str, shape: [usize; 3]) -> PyResult<Option<PyReadonlyArray3<'py, f32>>> {
-    let Some(obj) = obj.filter(|o| !o.is_none()) else { return Ok(None) };
-    let arr: PyReadonlyArray3<f32> = obj.extract().map_err(|_| {
-        let what = obj.getattr("dtype").and_then(|d| d.str()).map(|d| format!("array of dtype {d}")).unwrap_or_else(|_| obj.get_type().name().map(|n| n.to_string()).unwrap_or_default());
-        let ndim = obj.getattr("ndim").map(|d| d.to_string()).unwrap_or_else(|_| "?".into());
-        PyValueError::new_err(format!("{side} actions: expected a float32 array of shape {shape:?}, got {what} with {ndim} dimensions"))
-    })?;
-    if arr.shape() != shape {
-        return Err(PyValueError::new_err(format!("{side} actions: expected shape {shape:?}, got {:?}", arr.shape())));
+/// `shape` as Python writes a tuple: `(4, 3, 2)`, `(4,)`.
+fn py_shape(shape: &[usize]) -> String {
+    match shape {
+        [a] => format!("({a},)"),
+        _ => format!("({})", shape.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")),
     }
-    if !arr.is_c_contiguous() {
-        return Err(PyValueError::new_err(format!("{side} actions: array must be C-contiguous")));
-    }
-    Ok(Some(arr))
 }
 
-fn step_output_to_py<'py>(py: Python<'py>, env: &BatchEnv, mut o: StepOutput) -> PyResult<Bound<'py, PyDict>> {
-    let e = env.num_envs();
-    let (n, m) = (env.n_wolves(), env.n_targets());
-    let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
-    // Interned keys: one string object each for the life of the module, not one per step.
-    let d = PyDict::new(py);
-    let l = env.learners();
-    if l.wolves() {
-        d.set_item(intern!(py, "obs_wolves"), array(py, std::mem::take(&mut o.obs_wolves), &[e, n, dw])?)?;
-        if !o.final_obs_wolves.is_empty() {
-            d.set_item(intern!(py, "final_obs_wolves"), array(py, std::mem::take(&mut o.final_obs_wolves), &[e, n, dw])?)?;
-        }
-    }
-    if l.targets() {
-        d.set_item(intern!(py, "obs_targets"), array(py, std::mem::take(&mut o.obs_targets), &[e, m, dt])?)?;
-        if !o.final_obs_targets.is_empty() {
-            d.set_item(intern!(py, "final_obs_targets"), array(py, std::mem::take(&mut o.final_obs_targets), &[e, m, dt])?)?;
-        }
-    }
-    if !o.state.is_empty() {
-        d.set_item(intern!(py, "state"), array(py, std::mem::take(&mut o.state), &[e, env.state_dim()])?)?;
-    }
-    if !o.final_state.is_empty() {
-        d.set_item(intern!(py, "final_state"), array(py, std::mem::take(&mut o.final_state), &[e, env.state_dim()])?)?;
-    }
-    d.set_item(intern!(py, "rewards_wolves"), array(py, std::mem::take(&mut o.rewards_wolves), &[e, n])?)?;
-    d.set_item(intern!(py, "rewards_targets"), array(py, std::mem::take(&mut o.rewards_targets), &[e, m])?)?;
-    set_infos(py, &d, &mut o, [e, n, m])?;
-    Ok(d)
-}
-
-/// The per-world infos of a step into `d`, as every step call returns them, in this order
-/// (the SB3 view's `step_infos` keeps it): `outcome` [E]; `capture_step`, `cornered_step` [E, M];
-/// `energy`, `collisions`, `distance` [E, N+M]; `terminated`, `truncated`, `steps` [E]. The one
-/// place that names and shapes them; their arrays are taken out of `o`.
-fn set_infos<'py>(py: Python<'py>, d: &Bound<'py, PyDict>, o: &mut StepOutput, [e, n, m]: [usize; 3]) -> PyResult<()> {
-    use std::mem::take;
-    d.set_item(intern!(py, "outcome"), PyArray1::from_vec(py, take(&mut o.outcome)))?;
-    d.set_item(intern!(py, "capture_step"), array(py, take(&mut o.capture_step), &[e, m])?)?;
-    d.set_item(intern!(py, "cornered_step"), array(py, take(&mut o.cornered_step), &[e, m])?)?;
-    d.set_item(intern!(py, "energy"), array(py, take(&mut o.energy), &[e, n + m])?)?;
-    d.set_item(intern!(py, "collisions"), array(py, take(&mut o.collisions), &[e, n + m])?)?;
-    d.set_item(intern!(py, "distance"), array(py, take(&mut o.distance), &[e, n + m])?)?;
-    d.set_item(intern!(py, "terminated"), PyArray1::from_vec(py, take(&mut o.terminated)))?;
-    d.set_item(intern!(py, "truncated"), PyArray1::from_vec(py, take(&mut o.truncated)))?;
-    d.set_item(intern!(py, "steps"), PyArray1::from_vec(py, take(&mut o.steps)))?;
-    Ok(())
-}
-
-/// `obj` as a float32 C-contiguous array of exactly `shape`, or None (no error built: this is
-/// the fast paths' test, whose callers fall back to the checked path).
-fn exact_actions<'py, D: numpy::ndarray::Dimension>(obj: &Bound<'py, PyAny>, shape: &[usize]) -> Option<numpy::PyReadonlyArray<'py, f32, D>> {
-    let arr = obj.cast::<numpy::PyArray<f32, D>>().ok()?;
-    if arr.shape() != shape || !arr.is_c_contiguous() {
-        return None;
-    }
-    arr.try_readonly().ok()
-}
-
-/// One side's actions as `step` takes them (None: that side gives none).
-type SideActions<'py> = Option<PyReadonlyArray3<'py, f32>>;
-
-/// An array for one side, or None where that side has none.
-type SideArray<'py> = Option<Bound<'py, PyAny>>;
-
-/// `step`'s fast test: the actions of both sides as `step` takes them, or None when one is
-/// not exactly what it must be (float32, C-contiguous, [E, K, 2]), is missing for a learning
-/// side or given for a scripted one.
-fn exact_step_actions<'py>(env: &BatchEnv, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> Option<(SideActions<'py>, SideActions<'py>)> {
-    let e = env.num_envs();
-    let l = env.learners();
-    let side = |obj: Option<&Bound<'py, PyAny>>, learns: bool, k: usize| -> Option<SideActions<'py>> {
-        match (obj.filter(|o| !o.is_none()), learns) {
-            (None, false) => Some(None),
-            (Some(o), true) => exact_actions(o, &[e, k, 2]).map(Some),
-            _ => None,
-        }
+/// The actions of one side ("wolf" or "target") for a batch step: None where the side gives
+/// none. A float32 C-contiguous array of `shape` is used as it is; any other floating array
+/// (or nested list) is converted by numpy; a missing or unexpected side, an integer dtype or a
+/// wrong shape is a ValueError in the words of `wolfpack.BatchEnv.step`.
+fn actions_from<'py>(py: Python<'py>, obj: Option<&Bound<'py, PyAny>>, side: &str, learns: bool, shape: [usize; 3]) -> PyResult<Option<PyReadonlyArray3<'py, f32>>> {
+    let plural = if side == "wolf" { "wolves" } else { "targets" };
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return if learns { Err(PyValueError::new_err(format!("{side} actions are required: {plural} are learners here"))) } else { Ok(None) };
     };
-    Some((side(wolf_actions, l.wolves(), env.n_wolves())?, side(target_actions, l.targets(), env.n_targets())?))
+    if !learns {
+        return Err(PyValueError::new_err(format!("{side} actions given, but the {plural} are not learners here")));
+    }
+    if let Ok(a) = obj.cast::<PyArray3<f32>>() {
+        if a.shape() == shape && a.is_c_contiguous() {
+            if let Ok(r) = a.try_readonly() {
+                return Ok(Some(r));
+            }
+        }
+    }
+    let np = py.import(intern!(py, "numpy"))?;
+    let a = np.call_method1(intern!(py, "asarray"), (obj,))?;
+    let dtype = a.getattr(intern!(py, "dtype"))?;
+    if dtype.getattr(intern!(py, "kind"))?.extract::<String>()? != "f" {
+        return Err(PyValueError::new_err(format!("{side} actions: actions must be floating point, got dtype {}", dtype.str()?)));
+    }
+    let got: Vec<usize> = a.getattr(intern!(py, "shape"))?.extract()?;
+    if got != shape {
+        return Err(PyValueError::new_err(format!("{side} actions: expected shape {}, got {}", py_shape(&shape), py_shape(&got))));
+    }
+    let kwargs = PyDict::new(py);
+    kwargs.set_item(intern!(py, "dtype"), np.getattr(intern!(py, "float32"))?)?;
+    let a = np.call_method(intern!(py, "ascontiguousarray"), (a,), Some(&kwargs))?;
+    Ok(Some(a.cast_into::<PyArray3<f32>>()?.try_readonly()?))
 }
 
 fn slice_of<'a>(a: &'a Option<PyReadonlyArray3<'_, f32>>) -> PyResult<&'a [f32]> {
@@ -439,6 +383,86 @@ fn slice_of<'a>(a: &'a Option<PyReadonlyArray3<'_, f32>>) -> PyResult<&'a [f32]>
         Some(a) => a.as_slice().map_err(|e| PyValueError::new_err(e.to_string())),
         None => Ok(&[]),
     }
+}
+
+/// One side's actions or observations, or None where that side has none.
+type SideArray<'py> = Option<Bound<'py, PyAny>>;
+
+/// Declares, from the core's one list of the output arrays (`wolfpack_core::for_each_output!`),
+/// the two places where the binding meets them one by one: `output_to_py` (a fresh reset's or
+/// step's dict) and `OutViews` (the caller's `out=` arrays, checked and borrowed).
+macro_rules! binding_outputs {
+    ($($(#[$doc:meta])* $name:ident: $t:ty,)*) => {
+        /// `o`'s arrays as a dict of numpy arrays, keyed, shaped and typed as
+        /// `BatchEnv::output_specs` says (an array the batch does not write is left out); the
+        /// vectors are moved into numpy, not copied. The one place that builds a reset's or
+        /// step's dict.
+        fn output_to_py<'py>(py: Python<'py>, env: &BatchEnv, o: StepOutput) -> PyResult<Bound<'py, PyDict>> {
+            let d = PyDict::new(py);
+            let mut specs = env.output_specs().into_iter();
+            $(
+                let spec = specs.next().expect("one spec per output");
+                if !spec.is_empty() {
+                    // Interned once for the life of the module, not once per step.
+                    d.set_item(intern!(py, stringify!($name)), array(py, o.$name, spec.shape())?)?;
+                }
+            )*
+            Ok(d)
+        }
+
+        /// The caller's output arrays, checked and borrowed for one reset or step (None where
+        /// the batch writes nothing).
+        struct OutViews<'py> {
+            $($name: Option<PyReadwriteArrayDyn<'py, $t>>,)*
+        }
+
+        impl<'py> OutViews<'py> {
+            fn new(out: &Bound<'py, PyDict>, env: &BatchEnv) -> PyResult<Self> {
+                let py = out.py();
+                let mut specs = env.output_specs().into_iter();
+                // Struct fields are evaluated in the order written: the core's order.
+                Ok(Self { $($name: out_view::<$t>(out, intern!(py, stringify!($name)), &specs.next().expect("one spec per output"))?,)* })
+            }
+
+            /// The arrays as the core writes them.
+            fn buffers(&mut self) -> PyResult<StepBuffers<'_>> {
+                fn slice<'a, T: numpy::Element>(v: &'a mut Option<PyReadwriteArrayDyn<'_, T>>) -> PyResult<&'a mut [T]> {
+                    match v {
+                        Some(a) => a.as_slice_mut().map_err(|e| PyValueError::new_err(e.to_string())),
+                        None => Ok(&mut []),
+                    }
+                }
+                Ok(StepBuffers { $($name: slice(&mut self.$name)?,)* })
+            }
+        }
+    };
+}
+
+wolfpack_core::for_each_output!(binding_outputs);
+
+/// The writeable view of output `spec` (key `key`) in `out` (None where the batch writes nothing
+/// there): a C-contiguous array of exactly its dtype and shape, or a ValueError naming the key.
+fn out_view<'py, T: numpy::Element>(out: &Bound<'py, PyDict>, key: &Bound<'py, PyString>, spec: &OutputSpec) -> PyResult<Option<PyReadwriteArrayDyn<'py, T>>> {
+    if spec.is_empty() {
+        return Ok(None);
+    }
+    let py = out.py();
+    let bad = |got: String| {
+        let dtype = numpy::dtype::<T>(py).str().map(|s| s.to_string()).unwrap_or_default();
+        PyValueError::new_err(format!("out['{}']: expected a writeable, C-contiguous {dtype} array of shape {} (BatchEnv.new_outputs() makes them), got {got}", spec.name, py_shape(spec.shape())))
+    };
+    let Some(obj) = out.get_item(key)? else { return Err(bad("no such key".into())) };
+    let Ok(a) = obj.cast::<PyArrayDyn<T>>() else {
+        let what = obj.getattr("dtype").and_then(|d| d.str()).map(|d| format!("an array of dtype {d}")).unwrap_or_else(|_| obj.get_type().name().map(|n| n.to_string()).unwrap_or_default());
+        return Err(bad(what));
+    };
+    if a.shape() != spec.shape() {
+        return Err(bad(format!("shape {}", py_shape(a.shape()))));
+    }
+    if !a.is_c_contiguous() {
+        return Err(bad("a non-contiguous array".into()));
+    }
+    a.try_readwrite().map(Some).map_err(|_| bad("a read-only array, or one given for two keys".into()))
 }
 
 /// The native batch: `num_envs` worlds stepped together on a thread pool with the GIL
@@ -510,18 +534,26 @@ impl PyBatchEnv {
         params_to_py(py, &this.inner.params().resolved())
     }
 
+    /// A dict of zeroed output arrays of this batch's shapes: the arrays `step(out=...)`
+    /// writes into (keys, shapes and dtypes as `step` returns them).
+    fn new_outputs<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let this = shared(slf)?;
+        output_to_py(py, &this.inner, this.inner.new_outputs())
+    }
+
     /// Resets every world (world i seeded `seed + i` when a seed is given, else its next
-    /// episode). Returns the output dict with observations and infos.
+    /// episode). Returns a new output dict with observations and infos.
     #[pyo3(signature = (seed=None))]
     fn reset<'py>(slf: &Bound<'py, Self>, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyDict>> {
         let mut this = exclusive(slf)?;
         let env = &mut this.inner;
         let stop = AtomicBool::new(false);
         let out = interruptible(py, &stop, || guarded(|| env.reset_until(seed, &stop))?.map_err(value_error))?;
-        step_output_to_py(py, &this.inner, out)
+        output_to_py(py, &this.inner, out)
     }
 
-    /// Resets world `index` alone, optionally seeded and from a LAYOUT dict.
+    /// Resets world `index` alone, optionally seeded and from a LAYOUT dict. Returns a new
+    /// output dict of every world's current observations and infos.
     #[pyo3(signature = (index, seed=None, layout=None))]
     fn reset_world<'py>(slf: &Bound<'py, Self>, py: Python<'py>, index: usize, seed: Option<u64>, layout: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
         let mut this = exclusive(slf)?;
@@ -531,111 +563,46 @@ impl PyBatchEnv {
         };
         let env = &mut this.inner;
         let out = py.detach(|| guarded(|| env.reset_world(index, seed, l.as_ref())))?.map_err(value_error)?;
-        step_output_to_py(py, &this.inner, out)
+        output_to_py(py, &this.inner, out)
     }
 
-    /// One step. `wolf_actions` [E, N, 2] and `target_actions` [E, M, 2], float32, C-contiguous,
-    /// given for (and only for) the learning sides.
-    #[pyo3(signature = (wolf_actions=None, target_actions=None))]
-    fn step<'py>(slf: &Bound<'py, Self>, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+    /// The one step call. `wolf_actions` [E, N, 2] and `target_actions` [E, M, 2], given for
+    /// (and only for) the learning sides (float32 C-contiguous arrays are used as they are;
+    /// other floating arrays are converted). The outputs are written into `out` (a dict from
+    /// `new_outputs()`, every element written) and `out` is returned; without it, into a new
+    /// dict. Nothing moves, and `out` is untouched, when the actions or `out` are wrong.
+    #[pyo3(signature = (wolf_actions=None, target_actions=None, out=None))]
+    fn step<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        wolf_actions: Option<&Bound<'py, PyAny>>,
+        target_actions: Option<&Bound<'py, PyAny>>,
+        out: Option<Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
         let mut this = exclusive(slf)?;
-        let e = this.inner.num_envs();
-        let wa = actions_from(wolf_actions, "wolf", [e, this.inner.n_wolves(), 2])?;
-        let ta = actions_from(target_actions, "target", [e, this.inner.n_targets(), 2])?;
+        let (e, l) = (this.inner.num_envs(), this.inner.learners());
+        let wa = actions_from(py, wolf_actions, "wolf", l.wolves(), [e, this.inner.n_wolves(), 2])?;
+        let ta = actions_from(py, target_actions, "target", l.targets(), [e, this.inner.n_targets(), 2])?;
         let (ws, ts) = (slice_of(&wa)?, slice_of(&ta)?);
+        let Some(out) = out else {
+            let env = &mut this.inner;
+            let o = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
+            return output_to_py(py, &this.inner, o);
+        };
+        let mut views = OutViews::new(&out, &this.inner)?;
+        let mut bufs = views.buffers()?;
         let env = &mut this.inner;
-        let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
-        step_output_to_py(py, &this.inner, out)
+        py.detach(|| guarded(|| env.step_into(ws, ts, &mut bufs)))?.map_err(value_error)?;
+        Ok(out)
     }
 
-    /// `step` when the actions are exactly what it takes (float32, C-contiguous, [E, K, 2],
-    /// given for exactly the learning sides); otherwise None, and nothing moves: the caller
-    /// (`wolfpack.BatchEnv.step`) then checks and converts them and calls `step`. Errors of
-    /// the step itself (a non-finite action) are raised as `step` raises them.
-    #[pyo3(signature = (wolf_actions=None, target_actions=None))]
-    fn try_step<'py>(slf: &Bound<'py, Self>, py: Python<'py>, wolf_actions: Option<&Bound<'py, PyAny>>, target_actions: Option<&Bound<'py, PyAny>>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let mut this = exclusive(slf)?;
-        let Some((wa, ta)) = exact_step_actions(&this.inner, wolf_actions, target_actions) else {
-            return Ok(None);
-        };
-        let (ws, ts) = (slice_of(&wa)?, slice_of(&ta)?);
-        let env = &mut this.inner;
-        let out = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
-        step_output_to_py(py, &this.inner, out).map(Some)
-    }
-
-    /// For wolfpack's SB3 VecEnv (`wolfpack.vec_env`), whose slots are the learning agents of
-    /// every world, world-major (wolves first when both sides learn): one step from the
-    /// slots' actions, float32 [E*K, 2], C-contiguous (K = N, M or N+M by this batch's
-    /// learners). None, and nothing moves, when the actions are not exactly that or no side
-    /// learns. Else (obs, rewards, dones, infos, final_obs): rewards float32 [E*K] and dones
-    /// bool [E*K] per slot (a slot is done when its world terminated or was truncated);
-    /// infos a dict of `outcome`, `capture_step`, `cornered_step`, `energy`, `collisions`,
-    /// `distance`, `terminated`, `truncated`, `steps` as `step` returns them; obs [E*K, D]
-    /// when one side learns, (obs_wolves [E, N, Dw], obs_targets [E, M, Dt]) when both do;
-    /// final_obs the same for the last observations of the episodes that ended, or None when
-    /// no world ended this step. Errors as `step` raises them.
-    fn step_slots<'py>(slf: &Bound<'py, Self>, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<Option<Bound<'py, PyTuple>>> {
-        let mut this = exclusive(slf)?;
-        let (e, n, m) = (this.inner.num_envs(), this.inner.n_wolves(), this.inner.n_targets());
-        let (dw, dt) = (this.inner.wolf_obs_dim(), this.inner.target_obs_dim());
-        let l = this.inner.learners();
-        let k = if l.wolves() { n } else { 0 } + if l.targets() { m } else { 0 };
-        if k == 0 {
-            return Ok(None);
-        }
-        let Some(a) = exact_actions::<numpy::Ix2>(actions, &[e * k, 2]) else {
-            return Ok(None);
-        };
-        let flat = a.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?;
-        // Both sides: each world's row is its wolves' actions, then its targets'.
-        let (split_w, split_t): (Vec<f32>, Vec<f32>) = if l.wolves() && l.targets() {
-            let (mut w, mut t) = (Vec::with_capacity(e * n * 2), Vec::with_capacity(e * m * 2));
-            for row in flat.chunks_exact(k * 2) {
-                w.extend_from_slice(&row[..n * 2]);
-                t.extend_from_slice(&row[n * 2..]);
-            }
-            (w, t)
-        } else {
-            (Vec::new(), Vec::new())
-        };
-        let (ws, ts): (&[f32], &[f32]) = match (l.wolves(), l.targets()) {
-            (true, true) => (&split_w, &split_t),
-            (true, false) => (flat, &[]),
-            _ => (&[], flat),
-        };
-        let env = &mut this.inner;
-        let mut o = py.detach(|| guarded(|| env.step(ws, ts)))?.map_err(value_error)?;
-        let done_world: Vec<bool> = o.terminated.iter().zip(&o.truncated).map(|(a, b)| *a || *b).collect();
-        let ended = done_world.iter().any(|d| *d);
-        let dones: Vec<bool> = done_world.iter().flat_map(|d| std::iter::repeat_n(*d, k)).collect();
-        let d = PyDict::new(py);
-        set_infos(py, &d, &mut o, [e, n, m])?;
-        let rewards: Vec<f32> = match (l.wolves(), l.targets()) {
-            (true, true) => o.rewards_wolves.chunks_exact(n).zip(o.rewards_targets.chunks_exact(m)).flat_map(|(w, t)| w.iter().chain(t).copied()).collect(),
-            (true, false) => o.rewards_wolves,
-            _ => o.rewards_targets,
-        };
-        let obs_of = |w: Vec<f32>, t: Vec<f32>| -> PyResult<Bound<'py, PyAny>> {
-            Ok(match (l.wolves(), l.targets()) {
-                (true, true) => PyTuple::new(py, [array(py, w, &[e, n, dw])?, array(py, t, &[e, m, dt])?])?.into_any(),
-                (true, false) => array(py, w, &[e * n, dw])?,
-                _ => array(py, t, &[e * m, dt])?,
-            })
-        };
-        let obs = obs_of(o.obs_wolves, o.obs_targets)?;
-        let final_obs = if ended { obs_of(o.final_obs_wolves, o.final_obs_targets)? } else { py.None().into_bound(py) };
-        let out = [obs, PyArray1::from_vec(py, rewards).into_any(), PyArray1::from_vec(py, dones).into_any(), d.into_any(), final_obs];
-        PyTuple::new(py, out).map(Some)
-    }
-
-    /// The current observations and infos of every world, as a step would return them (no
+    /// The current observations and infos of every world, as a reset would return them (no
     /// rewards; nothing moves): for a side that just became driven (`set_drivers`).
     fn observe<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let mut this = exclusive(slf)?;
         let env = &mut this.inner;
         let out = py.detach(|| guarded(|| env.observe_all()))?.map_err(value_error)?;
-        step_output_to_py(py, &this.inner, out)
+        output_to_py(py, &this.inner, out)
     }
 
     /// Who drives each side from the next step on, keeping every world: `learners` and a
@@ -740,6 +707,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OUTCOMES", PyTuple::new(py, wolfpack_core::world::Outcome::ALL.map(|o| o.as_str()))?)?;
     m.add("WOLF_LAWS", PyTuple::new(py, wolfpack_core::config::WolfPolicy::ALL.map(|l| l.as_str()))?)?;
     m.add("TARGET_LAWS", PyTuple::new(py, wolfpack_core::config::TargetPolicy::ALL.map(|l| l.as_str()))?)?;
+    m.add("LEARNERS", PyTuple::new(py, Learners::ALL.map(Learners::as_str))?)?;
+    // The renderer's colours, for the legends and figures drawn in Python.
+    m.add("WOLF_COLOURS", PyTuple::new(py, wolfpack_core::render::WOLF_COLOURS.map(|c| PyTuple::new(py, c)).into_iter().collect::<PyResult<Vec<_>>>()?)?)?;
+    m.add("TARGET_COLOUR", PyTuple::new(py, wolfpack_core::render::TARGET_COLOUR)?)?;
+    m.add("STATIC_OBSTACLE_COLOUR", PyTuple::new(py, wolfpack_core::render::STATIC_OBSTACLE)?)?;
+    m.add("MOVING_OBSTACLE_COLOUR", PyTuple::new(py, wolfpack_core::render::MOVING_OBSTACLE)?)?;
     m.add_function(wrap_pyfunction!(observation_layout, m)?)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(validate_params, m)?)?;

@@ -10,35 +10,39 @@
 //! - With `autoreset`, a world that finishes is reset in the same step (SB3's convention): the
 //!   step returns the new episode's first observation, the finished episode's last observation
 //!   in `final_obs_*`, and the finished episode's infos.
-//! - Every step returns fresh output vectors (the binding hands them to numpy without copying).
+//! - Every reset and step writes its outputs into arrays the caller owns ([`StepBuffers`], laid
+//!   out by [`BatchEnv::output_specs`]: the binding's numpy arrays, allocated once by a trainer),
+//!   or into fresh vectors ([`StepOutput`]).
 //!
 //! | module | its one job |
 //! |---|---|
-//! | this one | the API: [`BatchEnv`], its worlds ([`Slot`]s) and the step of one world |
+//! | this one | the API: [`BatchEnv`] |
+//! | `slot` | one world of the batch (`Slot`): its step, its respawn, its observations |
 //! | `schedule` | spreading a step's worlds over the caller and the crew ([`crate::crew`]) |
-//! | `output` | the layout of a step's outputs ([`StepOutput`]) and each world's pieces of it |
+//! | `output` | the layout of a step's outputs ([`OutputSpec`], [`StepBuffers`]) and each world's pieces of it |
 //! | `actions` | a learner's action ↔ a command ([`decode`], [`encode`]) |
 
 mod actions;
 mod output;
 mod schedule;
+mod slot;
 
 pub use actions::{decode, encode};
-pub use output::{outcome_code, StepOutput};
+pub use output::{outcome_code, Dtype, OutputSpec, StepBuffers, StepOutput};
 
-use output::{write_infos, OutPieces, SlotOut};
-use schedule::{par_for, share, Disjoint};
+use output::{write_infos, OutPieces};
+use schedule::{par_for, share, Disjoint, FirstFailure};
+use slot::{env_slot, step_slot, write_obs, Slot};
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use crate::config::Params;
 use crate::crew::Crew;
 use crate::error::{Error, Result};
-use crate::observe::{target_dim, wolf_dim, Observer};
-use crate::policies::{Command, WolfMemory};
-use crate::reward::RewardState;
-use crate::world::{Layout, Outcome, World};
+use crate::observe::{target_dim, wolf_dim};
+use crate::policies::WolfMemory;
+use crate::world::{Layout, World};
 
 /// Which side learns; the other is scripted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,14 +54,24 @@ pub enum Learners {
 }
 
 impl Learners {
-    pub fn parse(s: &str) -> Result<Self> {
-        match s {
-            "wolves" => Ok(Self::Wolves),
-            "targets" => Ok(Self::Targets),
-            "all" => Ok(Self::All),
-            "none" => Ok(Self::None),
-            _ => Err(Error::Invalid(format!("learners must be one of 'wolves', 'targets', 'all', 'none', got {s:?}"))),
+    /// Every value, in the order the interface lists them.
+    pub const ALL: [Self; 4] = [Self::Wolves, Self::Targets, Self::All, Self::None];
+
+    /// The name the interface uses (`learners="wolves"`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Wolves => "wolves",
+            Self::Targets => "targets",
+            Self::All => "all",
+            Self::None => "none",
         }
+    }
+
+    pub fn parse(s: &str) -> Result<Self> {
+        Self::ALL.into_iter().find(|l| l.as_str() == s).ok_or_else(|| {
+            let names: Vec<String> = Self::ALL.iter().map(|l| format!("'{}'", l.as_str())).collect();
+            Error::Invalid(format!("learners must be one of {}, got {s:?}", names.join(", ")))
+        })
     }
 
     pub fn wolves(self) -> bool {
@@ -92,43 +106,6 @@ pub const MAX_ENVS: usize = 1 << 17;
 
 /// Most agents (worlds × (N + M)) one batch may hold: its outputs are sized by them.
 pub const MAX_BATCH_AGENTS: usize = 1 << 24;
-
-struct Slot {
-    world: World,
-    seed: u64,
-    episode: u64,
-    rewards: RewardState,
-    observer: Observer,
-    wolf_cmds: Vec<Command>,
-    target_cmds: Vec<Command>,
-}
-
-impl Slot {
-    /// Starts episode `episode` of this slot's world in place: the slot `env_slot` makes for
-    /// it (the observer's scratch aside, which holds nothing from one use to the next), in this
-    /// slot's own allocations ([`World::adopt`]).
-    fn respawn(&mut self, params: &Arc<Params>, episode: u64, track: bool) -> Result<()> {
-        let Slot { world, seed: _, episode, rewards: _, observer: _, wolf_cmds, target_cmds } = env_slot(params, self.seed, episode, None)?;
-        self.world.adopt(world);
-        self.world.track_laws = track;
-        self.episode = episode;
-        // RewardState::new is reset on a default state: the same lists, kept.
-        self.rewards.reset(&self.world);
-        self.wolf_cmds.clone_from(&wolf_cmds);
-        self.target_cmds.clone_from(&target_cmds);
-        Ok(())
-    }
-
-    /// [`World::prefetch`] and the slot's own lists.
-    #[inline]
-    fn prefetch(&self) {
-        self.world.prefetch();
-        self.observer.prefetch();
-        self.rewards.prefetch();
-        crate::math::prefetch_slice(&self.wolf_cmds);
-        crate::math::prefetch_slice(&self.target_cmds);
-    }
-}
 
 pub struct BatchEnv {
     params: Arc<Params>,
@@ -285,6 +262,14 @@ impl BatchEnv {
     /// batch is then exactly as before the call (the fresh worlds replace the old ones only
     /// when all of them are built).
     pub fn reset_until(&mut self, seed: Option<u64>, stop: &AtomicBool) -> Result<StepOutput> {
+        let mut out = self.new_outputs();
+        self.reset_into(seed, stop, &mut out.buffers())?;
+        Ok(out)
+    }
+
+    /// [`BatchEnv::reset_until`] writing into `out` (of [`Self::output_specs`]' shapes).
+    pub fn reset_into(&mut self, seed: Option<u64>, stop: &AtomicBool, out: &mut StepBuffers) -> Result<()> {
+        self.check_buffers(out)?;
         let params = self.params.clone();
         let track = self.track_laws;
         let g = |(i, s): (usize, &Slot)| {
@@ -303,12 +288,21 @@ impl BatchEnv {
         for s in &mut self.slots {
             s.world.track_laws = track;
         }
-        self.observe_all()
+        self.observe_into(out)
     }
 
     /// Resets world `e` alone, optionally from an explicit layout (whose agent counts must
     /// equal this batch's). `seed` as in [`BatchEnv::reset`] but for this world: `seed` itself.
     pub fn reset_world(&mut self, e: usize, seed: Option<u64>, layout: Option<&Layout>) -> Result<StepOutput> {
+        let mut out = self.new_outputs();
+        self.reset_world_into(e, seed, layout, &mut out.buffers())?;
+        Ok(out)
+    }
+
+    /// [`BatchEnv::reset_world`] writing into `out` (of [`Self::output_specs`]' shapes): every
+    /// world's current observations, world `e`'s fresh.
+    pub fn reset_world_into(&mut self, e: usize, seed: Option<u64>, layout: Option<&Layout>, out: &mut StepBuffers) -> Result<()> {
+        self.check_buffers(out)?;
         let (cur_seed, cur_ep) = self.world_seed(e).ok_or_else(|| Error::Invalid(format!("world index {e} out of range (num_envs = {})", self.num_envs())))?;
         if let Some(l) = layout {
             let (n, m) = (self.n_wolves(), self.n_targets());
@@ -323,19 +317,28 @@ impl BatchEnv {
         let mut slot = env_slot(&self.params, sd, ep, layout)?;
         slot.world.track_laws = self.track_laws;
         self.slots[e] = slot;
-        self.observe_all()
+        self.observe_into(out)
     }
 
     /// Observations of the current states (as a reset returns them): obs, infos and (with
     /// [`Self::set_with_state`]) states filled, rewards zero, no episode end. Fails where a
     /// state cannot be written ([`Self::state`]'s error).
     pub fn observe_all(&mut self) -> Result<StepOutput> {
-        let (mut out, lens) = self.alloc();
+        let mut out = self.new_outputs();
+        self.observe_into(&mut out.buffers())?;
+        Ok(out)
+    }
+
+    /// [`BatchEnv::observe_all`] writing into `out` (of [`Self::output_specs`]' shapes).
+    pub fn observe_into(&mut self, out: &mut StepBuffers) -> Result<()> {
+        self.check_buffers(out)?;
         let e = self.slots.len();
         let (n, m) = (self.n_wolves(), self.n_targets());
         let (participants, chunk) = self.schedule();
-        let outs = OutPieces::new(&mut out, lens, e, n, m);
+        let params = self.params.clone();
+        let outs = OutPieces::of_buffers(out, e, n, m);
         let slots = Disjoint::new(&mut self.slots);
+        let failed = FirstFailure::default();
         par_for(
             self.crew.as_mut(),
             participants,
@@ -347,18 +350,18 @@ impl BatchEnv {
                 let (s, mut o) = unsafe { (slots.item(i), outs.world(i)) };
                 write_obs(s, o.obs_w, o.obs_t);
                 write_infos(&s.world, &mut o);
+                o.rew_w.fill(0.0);
+                o.rew_t.fill(0.0);
+                (*o.term, *o.trunc) = (false, false);
+                o.clear_finals();
+                if !o.state.is_empty() {
+                    if let Err(err) = crate::state::write_state(&s.world, &params, o.state) {
+                        failed.record(i, err);
+                    }
+                }
             },
         );
-        // SAFETY: every world's task zeroed its pieces of the observation arrays
-        // (`OutPieces::world`), and the pieces tile them.
-        unsafe { lens.set(&mut out) };
-        if self.with_state {
-            let d = self.state_dim();
-            for (s, row) in self.slots.iter().zip(out.state.chunks_mut(d)) {
-                crate::state::write_state(&s.world, &self.params, row)?;
-            }
-        }
-        Ok(out)
+        failed.into_result()
     }
 
     /// Checks an action array of one side: its length and that every entry is finite. The
@@ -376,10 +379,34 @@ impl BatchEnv {
         Ok(())
     }
 
-    /// One step of every world. `wolf_actions` ([E, N, 2]) / `target_actions` ([E, M, 2]) are
-    /// required for (and only for) the learning sides; values are clipped to [-1, 1]. Nothing
-    /// moves when the actions are invalid. Without autoreset, a finished world stays as it is.
+    /// One step of every world, into fresh outputs ([`BatchEnv::step_into`]).
     pub fn step(&mut self, wolf_actions: &[f32], target_actions: &[f32]) -> Result<StepOutput> {
+        self.check_step_actions(wolf_actions, target_actions)?;
+        let (e, n, m) = (self.slots.len(), self.n_wolves(), self.n_targets());
+        let (mut out, lens) = self.alloc();
+        self.step_pieces(wolf_actions, target_actions, OutPieces::of_fresh(&mut out, lens, e, n, m))?;
+        // SAFETY: every world's task zeroed its pieces of the observation arrays before
+        // anything else (`OutPieces::world`), and the pieces tile them.
+        unsafe { lens.set(&mut out) };
+        Ok(out)
+    }
+
+    /// One step of every world, its outputs written into `out` (of [`Self::output_specs`]'
+    /// shapes; every element is written). `wolf_actions` ([E, N, 2]) / `target_actions`
+    /// ([E, M, 2]) are required for (and only for) the learning sides; values are clipped to
+    /// [-1, 1]. Nothing moves, and `out` is untouched, when the actions or the buffers are
+    /// invalid; after an error of the step itself (a world's law failed) `out` holds no
+    /// usable step. Without autoreset, a finished world stays as it is.
+    pub fn step_into(&mut self, wolf_actions: &[f32], target_actions: &[f32], out: &mut StepBuffers) -> Result<()> {
+        self.check_step_actions(wolf_actions, target_actions)?;
+        self.check_buffers(out)?;
+        let (e, n, m) = (self.slots.len(), self.n_wolves(), self.n_targets());
+        self.step_pieces(wolf_actions, target_actions, OutPieces::of_buffers(out, e, n, m))
+    }
+
+    /// The actions of both sides as [`Self::step_into`] takes them, or the error naming what
+    /// is wrong.
+    fn check_step_actions(&self, wolf_actions: &[f32], target_actions: &[f32]) -> Result<()> {
         let (n, m) = (self.n_wolves(), self.n_targets());
         for (learns, acts, side, per) in [(self.learners.wolves(), wolf_actions, "wolf", n), (self.learners.targets(), target_actions, "target", m)] {
             if learns {
@@ -388,17 +415,20 @@ impl BatchEnv {
                 return Err(Error::Invalid(format!("{side}s are scripted here (learners = {:?}); pass no {side} actions", self.learners)));
             }
         }
-        let (mut out, lens) = self.alloc();
+        Ok(())
+    }
+
+    /// Steps every world into `outs` (checked actions).
+    fn step_pieces(&mut self, wolf_actions: &[f32], target_actions: &[f32], outs: OutPieces) -> Result<()> {
+        let (n, m) = (self.n_wolves(), self.n_targets());
         let e = self.slots.len();
         let learners = self.learners;
         let autoreset = self.autoreset;
         let params = self.params.clone();
         let track = self.track_laws;
         let (participants, chunk) = self.schedule();
-        let outs = OutPieces::new(&mut out, lens, e, n, m);
         let slots = Disjoint::new(&mut self.slots);
-        // The error of the lowest-numbered world that failed, whichever thread saw it first.
-        let failed: Mutex<Option<(usize, Error)>> = Mutex::new(None);
+        let failed = FirstFailure::default();
         let f = |i: usize| {
             // SAFETY: par_for hands out each world index once.
             let (s, o) = unsafe { (slots.item(i), outs.world(i)) };
@@ -410,10 +440,7 @@ impl BatchEnv {
                     Error::NonFinite(m) => Error::NonFinite(format!("world {i} (seed {seed}, episode {episode}): {m}")),
                     other => other,
                 };
-                let mut first = failed.lock().unwrap_or_else(|p| p.into_inner());
-                if first.as_ref().is_none_or(|(k, _)| i < *k) {
-                    *first = Some((i, err));
-                }
+                failed.record(i, err);
             }
         };
         // SAFETY (the hint): par_for hints only an index the calling thread has claimed and
@@ -425,13 +452,7 @@ impl BatchEnv {
             }
         };
         par_for(self.crew.as_mut(), participants, e, chunk, ahead, f);
-        if let Some((_, err)) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
-            return Err(err);
-        }
-        // SAFETY: every world's task zeroed its pieces of the observation arrays before
-        // anything else (`OutPieces::world`), and the pieces tile them.
-        unsafe { lens.set(&mut out) };
-        Ok(out)
+        failed.into_result()
     }
 
     /// Changes who drives each side from the next step on, keeping every world as it is (for
@@ -516,87 +537,10 @@ impl BatchEnv {
     }
 }
 
-fn env_slot(params: &Arc<Params>, seed: u64, episode: u64, layout: Option<&Layout>) -> Result<Slot> {
-    let mut world = match layout {
-        Some(l) => World::from_layout_episode(params.clone(), seed, episode, l)?,
-        // BatchEnv::new validated the params; they are immutable behind the Arc since.
-        None => World::new_episode_prevalidated(params.clone(), seed, episode)?,
-    };
-    // Every reader of a batch world's polygons places what it reads (write_obs, world()).
-    world.lazy_obstacles = true;
-    let (n, m) = (world.n_wolves(), world.n_targets());
-    Ok(Slot { rewards: RewardState::new(&world), world, seed, episode, observer: Observer::default(), wolf_cmds: vec![Command::default(); n], target_cmds: vec![Command::default(); m] })
-}
-
-#[allow(clippy::too_many_arguments)]
-fn step_slot(s: &mut Slot, mut o: SlotOut, wa: &[f32], ta: &[f32], learners: Learners, autoreset: bool, params: &Arc<Params>, track: bool) -> Result<()> {
-    let p = &**params;
-    let (wolf_mode, target_mode) = (p.env.wolf_mode(), p.env.target_mode());
-    if !s.world.is_done() {
-        for (k, a) in s.world.wolves.iter().enumerate().take(wa.len() / 2) {
-            s.wolf_cmds[k] = decode(wolf_mode, a.theta, wa[2 * k], wa[2 * k + 1], p.agents.wolf.v_max, p.agents.wolf.omega_max, p.world.ts);
-        }
-        let side = &p.agents.target;
-        for (k, a) in s.world.targets.iter().enumerate().take(ta.len() / 2) {
-            s.target_cmds[k] = decode(target_mode, a.theta, ta[2 * k], ta[2 * k + 1], side.v_max, side.omega_max, p.world.ts);
-        }
-        let wc = learners.wolves().then_some(&s.wolf_cmds[..]);
-        let tc = learners.targets().then_some(&s.target_cmds[..]);
-        s.world.step_with(wc, tc);
-        if s.world.fault().is_none() {
-            s.rewards.step(&s.world, o.rew_w, o.rew_t);
-        }
-    }
-    // A faulted world (a law overflowed) fails this step and every later one until it is reset.
-    s.world.check_fault()?;
-    let outcome = s.world.outcome;
-    *o.term = matches!(outcome, Outcome::Captured | Outcome::Cornered | Outcome::Collision);
-    *o.trunc = outcome == Outcome::Timeout;
-    write_infos(&s.world, &mut o);
-    if autoreset && outcome != Outcome::Running {
-        write_obs(s, o.fin_w, o.fin_t);
-        if !o.fin_s.is_empty() {
-            crate::state::write_state(&s.world, p, o.fin_s)?;
-        }
-        s.respawn(params, s.episode + 1, track)?;
-    }
-    write_obs(s, o.obs_w, o.obs_t);
-    if !o.state.is_empty() {
-        crate::state::write_state(&s.world, p, o.state)?;
-    }
-    Ok(())
-}
-
-fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
-    if obs_w.is_empty() && obs_t.is_empty() {
-        return;
-    }
-    // The lidar reads the vertices of the polygons within its range: place those of a lazy
-    // world (the step placed only the ones the agents could touch or avoid).
-    let lidar = &s.world.params.env.lidar;
-    if lidar.rays > 0 {
-        let range = lidar.range;
-        s.world.place_for_lidar(!obs_w.is_empty(), !obs_t.is_empty(), range);
-    }
-    let w = &s.world;
-    s.observer.prepare(w);
-    if !obs_w.is_empty() {
-        let d = obs_w.len() / w.n_wolves();
-        for (i, chunk) in obs_w.chunks_mut(d).enumerate() {
-            s.observer.wolf(w, i, chunk);
-        }
-    }
-    if !obs_t.is_empty() {
-        let d = obs_t.len() / w.n_targets();
-        for (j, chunk) in obs_t.chunks_mut(d).enumerate() {
-            s.observer.target(w, j, chunk);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::observe::Observer;
 
     /// The batch's worlds place only the polygons their agents can reach or see: every
     /// observation it writes must equal, bit for bit, the observation of the same world with

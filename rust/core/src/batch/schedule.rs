@@ -3,8 +3,10 @@
 //! own runs out; [`Disjoint`] gives the tasks their own elements of a shared slice.
 
 use std::sync::atomic::Ordering;
+use std::sync::Mutex;
 
 use crate::crew::Crew;
+use crate::error::{Error, Result};
 
 /// Below this many items a job does not wake the crew's parked members ([`Crew::run_with`]):
 /// 32 worlds are ≈ 150 µs of one thread's stepping, several times a member's wake-up on a VM
@@ -313,5 +315,26 @@ mod tests {
         });
         let panicked = rx.recv_timeout(Duration::from_secs(60)).expect("share still waiting 60 s after a worker's task panicked");
         assert!(panicked, "the worker's panic was not handed on");
+    }
+}
+
+/// The error of the lowest-numbered world that failed in a batch's tasks, whichever thread saw
+/// it first: the error a serial loop over the worlds would have stopped at.
+#[derive(Default)]
+pub(super) struct FirstFailure(Mutex<Option<(usize, Error)>>);
+
+impl FirstFailure {
+    pub(super) fn record(&self, world: usize, err: Error) {
+        let mut first = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        if first.as_ref().is_none_or(|(k, _)| world < *k) {
+            *first = Some((world, err));
+        }
+    }
+
+    pub(super) fn into_result(self) -> Result<()> {
+        match self.0.into_inner().unwrap_or_else(|p| p.into_inner()) {
+            Some((_, err)) => Err(err),
+            None => Ok(()),
+        }
     }
 }
