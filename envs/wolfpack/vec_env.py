@@ -120,7 +120,7 @@ class WolfpackVecEnv(VecEnv):
         n, m = self.batch.n_wolves, self.batch.n_targets
         self.per_world = {"wolves": n, "targets": m, "all": n + m}[learners]
         self._side = learners
-        self._obs_key, self._rewards_key = f"obs_{learners}", f"rewards_{learners}"
+        self._rewards_key = f"rewards_{learners}"
         self._offset = n if learners == "targets" else 0
         self._agents = ([f"wolf_{i}" for i in range(n)] if learners != "targets" else []) + ([f"target_{j}" for j in range(m)] if learners != "wolves" else [])
         self._views = [_SlotView(self, e, a) for e in range(self.worlds) for a in self._agents]
@@ -199,13 +199,12 @@ class WolfpackVecEnv(VecEnv):
         except ValueError:
             self._check_finite(actions)
             raise
-        # Reshapes and one `|` only: this is the whole per-step cost of the SB3 layout, so
-        # method calls and numpy's dispatching functions (np.repeat, ndarray.any) are avoided.
+        # Views and one `|`: the SB3 layout's whole per-step cost, paid at every E (numpy's
+        # dispatching functions, np.repeat and ndarray.any, cost more than the methods used).
+        obs = self._obs(out)
         if self._shared is None:
-            obs = out[self._obs_key].reshape(self.num_envs, -1)
             rewards = out[self._rewards_key].ravel()
         else:
-            obs = self._obs(out)
             rewards = np.concatenate([out["rewards_wolves"], out["rewards_targets"]], axis=1).ravel()
         done_world = out["terminated"] | out["truncated"]
         dones = done_world if self.per_world == 1 else done_world.repeat(self.per_world)
