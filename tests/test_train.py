@@ -101,6 +101,50 @@ def test_mappo_critic_reads_the_state_and_ippo_does_not(tmp_path):
     assert with_ids.actor.body[0].in_features == env.wolf_obs_dim + 5
 
 
+def test_the_critic_projects_the_state_once_per_world_as_the_joined_input_would():
+    from wolfpack.learn.nets import Critic
+
+    torch.manual_seed(0)
+    for agent_id in (False, True):
+        critic = Critic(obs_dim=7, state_dim=4, agents=3, hidden=[8, 8], activation="tanh", agent_id=agent_id, norm_obs=True)
+        obs, state = torch.randn(6, 3, 7), torch.randn(6, 4)
+        agent_in = critic.agent_inputs(obs)
+        joined = torch.cat([state.unsqueeze(1).expand(6, 3, 4), agent_in], dim=-1)
+        torch.testing.assert_close(critic.value(agent_in, state), critic.body(joined).squeeze(-1))
+
+
+@pytest.mark.parametrize("algo", ["mappo", "ippo"])
+@pytest.mark.parametrize("train_actor", [True, False], ids=["ppo", "critic-only"])
+def test_the_actor_and_critic_learning_side_by_side_give_the_weights_of_one_thread(algo, train_actor):
+    from wolfpack.learn.ppo import SideLearner
+
+    r = recipe("wolves", algo, {**TINY, "clip_value": 0.2, "ent_coef": 0.01})
+    learners = []
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        for side_by_side in (False, True):
+            torch.manual_seed(3)
+            gen = torch.Generator().manual_seed(4)
+            learner = SideLearner("wolves", algo, r, obs_dim=9, state_dim=6, agents=5, num_envs=8, device=torch.device("cpu"), generator=gen, side_by_side=side_by_side)
+            data = torch.Generator().manual_seed(5)
+            for buffer in (learner.obs, learner.actions, learner.values, learner.advantages, learner.returns) + ((learner.state,) if learner.state is not None else ()):
+                buffer.normal_(generator=data)
+            learner.logp.normal_(generator=data).mul_(0.1).sub_(2.0)
+            stats = [learner.update(train_actor=train_actor) for _ in range(2)]
+            learners.append((learner, stats))
+    finally:
+        torch.set_num_threads(threads)
+    (serial, serial_stats), (parallel, parallel_stats) = learners
+    assert serial_stats == parallel_stats and serial_stats[0]["gradient_steps"] == 2 * (8 * 16 // (64 // 5))
+    for (name, a), (_, b) in zip(serial.actor.state_dict().items(), parallel.actor.state_dict().items()):
+        assert torch.equal(a, b), name
+    for (name, a), (_, b) in zip(serial.critic.state_dict().items(), parallel.critic.state_dict().items()):
+        assert torch.equal(a, b), name
+    initial = SideLearner("wolves", algo, r, obs_dim=9, state_dim=6, agents=5, num_envs=8, device=torch.device("cpu"), generator=torch.Generator())
+    assert torch.equal(serial.actor.log_std, initial.actor.log_std) != train_actor  # the actor learns only when asked
+
+
 def test_ippo_targets_against_a_law_train_and_say_what_they_trained_against(tmp_path):
     summary = tiny_train(tmp_path / "t", "targets", "ippo", opponent="bvc")
     policy = load_policy(tmp_path / "t")
@@ -109,13 +153,14 @@ def test_ippo_targets_against_a_law_train_and_say_what_they_trained_against(tmp_
     assert summary["final_evaluation"]["targets"]["wolves"] == "bvc"
 
 
-def test_a_rerun_with_the_same_seed_is_bit_identical_and_another_seed_is_not(tmp_path):
+@pytest.mark.parametrize("torch_threads", [1, 2], ids=["one-torch-thread", "actor-and-critic-side-by-side"])
+def test_a_rerun_with_the_same_seed_is_bit_identical_and_another_seed_is_not(tmp_path, torch_threads):
     def weights(out):
         return {k: v.numpy().copy() for k, v in torch.load(out / "wolves" / "policy.pt", weights_only=True).items()}
 
-    tiny_train(tmp_path / "a", seed=5)
-    tiny_train(tmp_path / "b", seed=5)
-    tiny_train(tmp_path / "c", seed=6)
+    tiny_train(tmp_path / "a", seed=5, torch_threads=torch_threads)
+    tiny_train(tmp_path / "b", seed=5, torch_threads=torch_threads)
+    tiny_train(tmp_path / "c", seed=6, torch_threads=torch_threads)
     a, b, c = weights(tmp_path / "a"), weights(tmp_path / "b"), weights(tmp_path / "c")
     assert all(np.array_equal(a[k], b[k]) for k in a)
     assert not all(np.array_equal(a[k], c[k]) for k in a)

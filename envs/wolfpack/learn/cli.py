@@ -99,7 +99,13 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
     p.add_argument("--device", choices=DEVICES, default="auto", help="where the networks run: auto (CUDA when present), cpu or cuda; the worlds always step on the CPU")
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, 256), default=None, help="the batch's worker threads (default: the recipe's choice for this machine, see --help's text)")
-    p.add_argument("--torch-threads", metavar="T", type=_int_at_least(1, 256), default=None, help="torch's threads (default: all cores; the batch and torch take turns, never run together)")
+    p.add_argument(
+        "--torch-threads",
+        metavar="T",
+        type=_int_at_least(1, 256),
+        default=None,
+        help="torch's threads (default: all cores; the batch and torch take turns, never run together; on the CPU the rollout uses one, and with two or more the update learns the actor and the critic side by side, each with half)",
+    )
     p.add_argument("--eval-episodes", metavar="K", type=_int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
     p.add_argument(
         "--imitate",
@@ -156,8 +162,9 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
 
 def default_threads() -> tuple[int, int]:
     """(batch threads, torch threads) when not given: every usable core for both. The batch and
-    torch take turns (a rollout step, then a forward pass; the update alone), so they never
-    compete for the cores (BENCHMARKS.md, "Learning", measured the alternatives)."""
+    torch take turns (a rollout step, then a forward pass on one thread; the update alone, the
+    actor and the critic side by side), so they never compete for the cores (BENCHMARKS.md,
+    "Learning", measured the alternatives)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     return cores, cores
 

@@ -14,6 +14,7 @@ learner the final observations of autoreset worlds.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -29,9 +30,31 @@ class SideLearner:
 
     Buffers (on ``device``, allocated once): normalised observations [T, E, K, D], normalised
     states [T, E, S] (MAPPO), raw actions [T, E, K, 2], their log-probabilities, values and
-    rewards [T, E, K], episode ends [T, E]."""
+    rewards [T, E, K], episode ends [T, E].
 
-    def __init__(self, side: str, algo: str, recipe: dict, *, obs_dim: int, state_dim: int, agents: int, num_envs: int, device: torch.device, generator: torch.Generator) -> None:
+    ``side_by_side``: the update's actor and critic learn at once, each minibatch's critic
+    forward and backward on a thread of its own while the calling thread does the actor's. The
+    two share no parameter (only the gradient clip's joint norm and Adam's step, which follow
+    both), so the weights are those of one thread, bit for bit. Why threads of our own rather
+    than torch's: torch's intra-op threads meet at the end of every operation, thousands per
+    update, and each meeting wakes a sleeping thread (or keeps it spinning, which beside another
+    busy process stalls a worker for a scheduler slice); two coarse tasks meet once per
+    minibatch (BENCHMARKS.md, "Learning")."""
+
+    def __init__(
+        self,
+        side: str,
+        algo: str,
+        recipe: dict,
+        *,
+        obs_dim: int,
+        state_dim: int,
+        agents: int,
+        num_envs: int,
+        device: torch.device,
+        generator: torch.Generator,
+        side_by_side: bool = False,
+    ) -> None:
         self.side, self.algo, self.recipe, self.device, self.gen = side, algo, recipe, device, generator
         self.agents, self.num_envs, self.n_steps = agents, num_envs, int(recipe["n_steps"])
         centralised = algo == "mappo"
@@ -65,6 +88,7 @@ class SideLearner:
         self.returns = zeros(T, E, K)
         self._noise = zeros(E, K, 2)
         self._actions_out = torch.zeros(E, K, 2)  # on the CPU, what the batch reads
+        self._critic_thread = ThreadPoolExecutor(1, thread_name_prefix=f"wolfpack-{side}-critic") if side_by_side else None
 
     # --- the rollout ----------------------------------------------------------------------------
 
@@ -92,7 +116,7 @@ class SideLearner:
         a = self.actions[t]
         torch.addcmul(mean, self._noise, log_std.exp(), out=a)
         self.logp[t] = -(0.5 * self._noise * self._noise + log_std + 0.5 * LOG_2PI).sum(-1)
-        self.values[t] = self.critic(self.critic.inputs(o, s))
+        self.values[t] = self.critic.value(self.critic.agent_inputs(o), s)
         self._actions_out.copy_(a.clamp(-1.0, 1.0))
         return self._actions_out.numpy()
 
@@ -116,7 +140,7 @@ class SideLearner:
         if self.state is not None:
             s = torch.empty_like(self.state[0])
             self._normalise_into(self.critic.state_norm, state, s, count=False)
-        last_value = self.critic(self.critic.inputs(o, s))
+        last_value = self.critic.value(self.critic.agent_inputs(o), s)
         self.return_norm.commit()
         if self.return_norm.enabled:
             self.rewards.mul_(self.return_norm.scale[0])
@@ -147,41 +171,58 @@ class SideLearner:
         clip, clip_v = float(rc["clip"]), rc["clip_value"]
         ent_coef, vf_coef, max_norm = float(rc["ent_coef"]), float(rc["vf_coef"]), float(rc["max_grad_norm"])
         target_kl = rc["target_kl"]
+        # Minibatches of whole world-steps (all K agents of a world at a step together), so that
+        # the critic projects each world's state once for its K agents (Critic.value).
+        T, E, K = self.n_steps, self.num_envs, self.agents
         with torch.no_grad():
-            actor_in = self.actor.inputs(self.obs).reshape(-1, self.actor.body[0].in_features)
-            critic_in = self.critic.inputs(self.obs, self.state).reshape(-1, self.critic.body[0].in_features)
-        actions, old_logp = self.actions.reshape(-1, 2), self.logp.reshape(-1)
-        adv, ret, old_v = self.advantages.reshape(-1), self.returns.reshape(-1), self.values.reshape(-1)
-        n = adv.shape[0]
-        mb = min(int(rc["minibatch_size"]), n)
+            # The actor's and the critic's per-agent inputs are the same rows (the normalised
+            # observation, ⊕ the agent id when the recipe asks for it): gathered once.
+            agent_in = self.actor.inputs(self.obs).reshape(T * E, K, -1)
+        states = self.state.reshape(T * E, -1) if self.state is not None else None
+        actions, old_logp = self.actions.reshape(T * E, K, 2), self.logp.reshape(T * E, K)
+        adv, ret, old_v = self.advantages.reshape(T * E, K), self.returns.reshape(T * E, K), self.values.reshape(T * E, K)
+        n = T * E
+        mb = max(1, min(int(rc["minibatch_size"]), n * K) // K)
         sums = dict(policy_loss=0.0, value_loss=0.0, entropy=0.0, approx_kl=0.0, clip_fraction=0.0)
         steps = 0
         stop = False
+        threads = torch.get_num_threads()
+
+        def critic_step(x: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+            """The critic's loss for minibatch ``idx`` (inputs ``x``), its gradients accumulated."""
+            torch.set_num_threads(threads)  # a thread of its own starts with torch's default
+            v = self.critic.value(x, states.index_select(0, idx) if states is not None else None)
+            r = ret.index_select(0, idx)
+            if clip_v is not None:
+                v_old = old_v.index_select(0, idx)
+                v_clipped = v_old + (v - v_old).clamp(-float(clip_v), float(clip_v))
+                value_loss = 0.5 * torch.max((v - r) ** 2, (v_clipped - r) ** 2).mean()
+            else:
+                value_loss = 0.5 * ((v - r) ** 2).mean()
+            (vf_coef * value_loss).backward()
+            return value_loss.detach()
+
         for _ in range(int(rc["epochs"])):
             order = torch.randperm(n, generator=self.gen, device=self.device)
             for lo in range(0, n - mb + 1, mb):
                 idx = order[lo : lo + mb]
+                self.optimizer.zero_grad(set_to_none=True)
                 # index_select, not x[idx]: the same rows, gathered 2–4x faster on the CPU (the
                 # generic indexing kernel was 19 % of an update's time).
-                mean = self.actor.body(actor_in.index_select(0, idx))
-                logp = self.actor.log_prob(mean, actions.index_select(0, idx))
-                log_ratio = logp - old_logp.index_select(0, idx)
-                ratio = log_ratio.exp()
-                a = adv.index_select(0, idx)
-                a = (a - a.mean()) / (a.std() + 1e-8)
-                policy_loss = torch.max(-a * ratio, -a * ratio.clamp(1 - clip, 1 + clip)).mean()
-                v = self.critic(critic_in.index_select(0, idx))
-                r = ret.index_select(0, idx)
-                if clip_v is not None:
-                    v_old = old_v.index_select(0, idx)
-                    v_clipped = v_old + (v - v_old).clamp(-float(clip_v), float(clip_v))
-                    value_loss = 0.5 * torch.max((v - r) ** 2, (v_clipped - r) ** 2).mean()
-                else:
-                    value_loss = 0.5 * ((v - r) ** 2).mean()
-                entropy = self.actor.entropy()
-                loss = policy_loss - ent_coef * entropy + vf_coef * value_loss if train_actor else vf_coef * value_loss
-                self.optimizer.zero_grad(set_to_none=True)
-                loss.backward()
+                x = agent_in.index_select(0, idx)
+                critic = self._critic_thread.submit(critic_step, x, idx) if self._critic_thread else None
+                with torch.set_grad_enabled(train_actor):
+                    mean = self.actor.body(x)
+                    logp = self.actor.log_prob(mean, actions.index_select(0, idx))
+                    log_ratio = logp - old_logp.index_select(0, idx)
+                    ratio = log_ratio.exp()
+                    a = adv.index_select(0, idx)
+                    a = (a - a.mean()) / (a.std() + 1e-8)
+                    policy_loss = torch.max(-a * ratio, -a * ratio.clamp(1 - clip, 1 + clip)).mean()
+                    entropy = self.actor.entropy()
+                if train_actor:
+                    (policy_loss - ent_coef * entropy).backward()
+                value_loss = critic.result() if critic else critic_step(x, idx)
                 nn.utils.clip_grad_norm_(self.params, max_norm)
                 self.optimizer.step()
                 with torch.no_grad():

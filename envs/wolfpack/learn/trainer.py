@@ -147,6 +147,13 @@ class Trainer:
         self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent, with_state=spec.algo == "mappo")
         for member in pool_members:  # every pool member fits these worlds, up front
             self.env._check_opponent_fits(member)
+        # Torch's threads: one for the rollout's forward passes (E x K rows: too small to share; on
+        # the 2-core VM two threads made the rollout 1.6-1.8x slower, and the batch's threads need
+        # the cores then); in the update, the actor and the critic side by side on CPUs with two
+        # or more threads for torch, each with half of them (SideLearner, BENCHMARKS.md "Learning").
+        torch_threads = spec.torch_threads or torch.get_num_threads()
+        side_by_side = self.device.type == "cpu" and torch_threads >= 2
+        self._threads = {"rollout": 1 if self.device.type == "cpu" else torch_threads, "update": torch_threads // 2 if side_by_side else torch_threads, "rest": torch_threads}
         self.learners: dict[str, SideLearner] = {}
         for side in spec.sides:
             self.learners[side] = SideLearner(
@@ -159,6 +166,7 @@ class Trainer:
                 num_envs=self.num_envs,
                 device=self.device,
                 generator=self.generator,
+                side_by_side=side_by_side,
             )
         if state is not None:
             self._restore(state)
@@ -286,6 +294,7 @@ class Trainer:
                     self.env.set_opponent(self.opponents())
                     buffers = self.env.new_outputs()
                 rollouts += 1
+                torch.set_num_threads(self._threads["rollout"])
                 outcomes = np.zeros(len(OUTCOMES), np.int64)
                 finished_returns: dict[str, list[float]] = {side: [] for side in spec.sides}
                 for t in range(self.n_steps):
@@ -307,9 +316,11 @@ class Trainer:
                 for side, learner in self.learners.items():
                     learner.finish_rollout(out[f"obs_{side}"], state)
                 t1 = time.perf_counter()
+                torch.set_num_threads(self._threads["update"])
                 for side, learner in self.learners.items():
                     learner.set_learning_rate(self._learning_rate(side, fraction))
                     stats[side] = learner.update(train_actor=critic_only == 0)
+                torch.set_num_threads(self._threads["rest"])  # evaluations, checkpoints, imitation
                 critic_only = max(critic_only - 1, 0)
                 t2 = time.perf_counter()
                 self.updates += 1
