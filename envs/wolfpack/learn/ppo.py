@@ -110,13 +110,15 @@ class SideLearner:
         if self.state is not None:
             s = self.state[t]
             self._normalise_into(self.critic.state_norm, state, s)
-        mean = self.actor.mean(o)
+        # The actor's and the critic's per-agent inputs are the same rows (see update): built once.
+        x = self.actor.inputs(o)
+        mean = self.actor.body(x)
         torch.randn(self._noise.shape, generator=self.gen, device=self.device, out=self._noise)
         log_std = self.actor.log_std
         a = self.actions[t]
         torch.addcmul(mean, self._noise, log_std.exp(), out=a)
         self.logp[t] = -(0.5 * self._noise * self._noise + log_std + 0.5 * LOG_2PI).sum(-1)
-        self.values[t] = self.critic.value(self.critic.agent_inputs(o), s)
+        self.values[t] = self.critic.value(x, s)
         self._actions_out.copy_(a.clamp(-1.0, 1.0))
         return self._actions_out.numpy()
 
@@ -186,11 +188,12 @@ class SideLearner:
         sums = dict(policy_loss=0.0, value_loss=0.0, entropy=0.0, approx_kl=0.0, clip_fraction=0.0)
         steps = 0
         stop = False
-        threads = torch.get_num_threads()
+        if self._critic_thread is not None:
+            # A thread of its own starts with torch's default thread count: give it the caller's.
+            self._critic_thread.submit(torch.set_num_threads, torch.get_num_threads()).result()
 
         def critic_step(x: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
             """The critic's loss for minibatch ``idx`` (inputs ``x``), its gradients accumulated."""
-            torch.set_num_threads(threads)  # a thread of its own starts with torch's default
             v = self.critic.value(x, states.index_select(0, idx) if states is not None else None)
             r = ret.index_select(0, idx)
             if clip_v is not None:
