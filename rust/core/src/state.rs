@@ -16,7 +16,7 @@
 
 use crate::config::Params;
 use crate::error::{Error, Result};
-use crate::math::{cos, sin};
+use crate::math::sin_cos;
 use crate::world::World;
 
 pub const WOLF_ENTRIES: usize = 6;
@@ -45,22 +45,28 @@ pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
         out[k] = x as f32;
         k += 1;
     };
+    // The headings' sines and cosines from the bodies the step placed (World::heading_sin_cos,
+    // the same bits): libm's trigonometry was most of this row's cost.
     let wolf = &params.agents.wolf;
-    for a in &w.wolves {
-        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, cos(a.theta), sin(a.theta), a.v / wolf.v_max, a.omega / wolf.omega_max] {
+    for (k, a) in w.wolves.iter().enumerate() {
+        let (s, c) = w.heading_sin_cos(k);
+        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, c, s, a.v / wolf.v_max, a.omega / wolf.omega_max] {
             put(x);
         }
     }
     let target = &params.agents.target;
-    for (a, &ended) in w.targets.iter().zip(&w.target_captured) {
-        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, cos(a.theta), sin(a.theta), a.v / target.v_max, a.omega / target.omega_max, f64::from(u8::from(ended))] {
+    let n = w.wolves.len();
+    for (j, (a, &ended)) in w.targets.iter().zip(&w.target_captured).enumerate() {
+        let (s, c) = w.heading_sin_cos(n + j);
+        for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, c, s, a.v / target.v_max, a.omega / target.omega_max, f64::from(u8::from(ended))] {
             put(x);
         }
     }
     for s in 0..slots {
         match w.obstacles.get(s) {
             Some(o) => {
-                for x in [1.0, (o.center.x - cx) / hx, (o.center.y - cy) / hy, cos(o.angle), sin(o.angle)] {
+                let (s, c) = sin_cos(o.angle);
+                for x in [1.0, (o.center.x - cx) / hx, (o.center.y - cy) / hy, c, s] {
                     put(x);
                 }
             }
@@ -80,6 +86,31 @@ mod tests {
     use super::*;
     use crate::world::{Layout, LayoutObstacle};
     use std::sync::Arc;
+
+    /// After steps (when the headings' sines and cosines come from the bodies the step placed),
+    /// each agent's heading entries are cos θ and sin θ of its pose, bit for bit, and each
+    /// obstacle's those of its angle.
+    #[test]
+    fn heading_entries_are_the_poses_cos_and_sin() {
+        use crate::math::{cos, sin};
+        let mut w = World::new(Arc::new(Params::default()), 7).unwrap();
+        let p = w.params.clone();
+        let mut row = vec![0.0f32; state_dim(&p)];
+        for t in 0..60 {
+            w.step();
+            write_state(&w, &p, &mut row).unwrap();
+            let agents = w.wolves.iter().map(|a| (a.theta, WOLF_ENTRIES)).chain(w.targets.iter().map(|a| (a.theta, TARGET_ENTRIES)));
+            let mut k = 0;
+            for (i, (theta, entries)) in agents.enumerate() {
+                assert_eq!((row[k + 2], row[k + 3]), (cos(theta) as f32, sin(theta) as f32), "step {t}, agent {i}");
+                k += entries;
+            }
+            for (i, o) in w.obstacles.iter().enumerate() {
+                let at = k + i * OBSTACLE_ENTRIES;
+                assert_eq!((row[at + 3], row[at + 4]), (cos(o.angle) as f32, sin(o.angle) as f32), "step {t}, obstacle {i}");
+            }
+        }
+    }
 
     #[test]
     fn state_row_by_hand() {
