@@ -247,6 +247,6 @@ class WolfpackEnv(EnvBase):
             source[side] = TensorDict._new_unsafe(group, batch_size=(e, k))
         # Without the per-entry checks of TensorDict(...): every entry is a CPU tensor of the
         # spec's shape and dtype (check_env_specs in the tests), and at E = 256 the checks cost
-        # ≈ a tenth of a step. TorchRL's own envs (gym_like, brax) build their outputs this way.
+        # ≈ 40 µs of a step's ≈ 1 ms. TorchRL's own envs (gym_like, brax) build outputs this way.
         td = TensorDict._new_unsafe(source, batch_size=(e,))
         return td if self.device == torch.device("cpu") else td.to(self.device)

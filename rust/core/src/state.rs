@@ -62,8 +62,8 @@ pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
             put(x);
         }
     }
-    for s in 0..slots {
-        match w.obstacles.get(s) {
+    for slot in 0..slots {
+        match w.obstacles.get(slot) {
             Some(o) => {
                 let (s, c) = sin_cos(o.angle);
                 for x in [1.0, (o.center.x - cx) / hx, (o.center.y - cy) / hy, c, s] {
