@@ -48,14 +48,14 @@ pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
     // The headings' sines and cosines from the bodies the step placed (World::heading_sin_cos,
     // the same bits): libm's trigonometry was most of this row's cost.
     let wolf = &params.agents.wolf;
-    for (k, a) in w.wolves.iter().enumerate() {
-        let (s, c) = w.heading_sin_cos(k);
+    for (i, a) in w.wolves.iter().enumerate() {
+        let (s, c) = w.heading_sin_cos(i);
         for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, c, s, a.v / wolf.v_max, a.omega / wolf.omega_max] {
             put(x);
         }
     }
     let target = &params.agents.target;
-    let n = w.wolves.len();
+    let n = w.n_wolves();
     for (j, (a, &ended)) in w.targets.iter().zip(&w.target_captured).enumerate() {
         let (s, c) = w.heading_sin_cos(n + j);
         for x in [(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, c, s, a.v / target.v_max, a.omega / target.omega_max, f64::from(u8::from(ended))] {
