@@ -140,6 +140,10 @@ pub const LIMITS: &[Limit] = &[
     closed("env.lidar.rays", 0.0, 1024.0, "rays"),
     positive("env.lidar.range", DISTANCE, "m"),
     closed("env.lidar.noise", 0.0, 1.0, "(standard deviation, in units of the range)"),
+    closed("env.entities.max_wolves", 1.0, 1024.0, "rows"),
+    closed("env.entities.max_targets", 1.0, 1024.0, "rows"),
+    closed("env.entities.max_obstacles", 0.0, 1024.0, "rows"),
+    positive("env.entities.range", DISTANCE, "m"),
     // rewards
     closed("rewards.wolves.capture_bonus", -REWARD, REWARD, "per event"),
     closed("rewards.wolves.shaping", -REWARD, REWARD, "(weight)"),

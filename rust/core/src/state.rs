@@ -13,8 +13,14 @@
 //! x̂ = (x − c_x) / h_x, ŷ = (y − c_y) / h_y with c the arena's centre and h its half-extents, so
 //! the arena maps onto [−1, 1]². A world started from a layout with fewer obstacles than the
 //! params leaves the remaining slots empty; one with more does not fit (an error naming both).
+//!
+//! With `env.state: entities` the row is instead `max_wolves` wolf rows then `max_targets`
+//! target rows of [`ENTITY_STATE_FIELDS`] (by index, the unused ones all 0), then the clock:
+//! its size follows the capacities, not the team sizes, as the entity observations do. It holds
+//! no obstacles: a centralised critic reads it beside the agent's own observation, whose rows
+//! hold the obstacles near that agent.
 
-use crate::config::Params;
+use crate::config::{ObservationKind, Params};
 use crate::error::{Error, Result};
 use crate::math::sin_cos;
 use crate::world::World;
@@ -23,13 +29,24 @@ pub const WOLF_ENTRIES: usize = 6;
 pub const TARGET_ENTRIES: usize = 7;
 pub const OBSTACLE_ENTRIES: usize = 5;
 
+/// The entries of one agent row of the entity state, in order (x, y as x̂, ŷ above).
+pub const ENTITY_STATE_FIELDS: [&str; 10] = ["present", "wolf", "target", "x", "y", "cos_heading", "sin_heading", "speed", "turn_rate", "ended"];
+
 /// Entries in one world's state row.
 pub fn state_dim(params: &Params) -> usize {
+    if params.env.state == ObservationKind::Entities {
+        let e = &params.env.entities;
+        return ENTITY_STATE_FIELDS.len() * (e.max_wolves + e.max_targets) + 1;
+    }
     WOLF_ENTRIES * params.world.wolves + TARGET_ENTRIES * params.world.targets + OBSTACLE_ENTRIES * params.obstacles.total() + 1
 }
 
 /// Writes world `w`'s state row (length [`state_dim`] of the batch's params) into `out`.
 pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
+    if params.env.state == ObservationKind::Entities {
+        write_entity_state(w, params, out);
+        return Ok(());
+    }
     let slots = params.obstacles.total();
     if w.obstacles.len() > slots {
         return Err(Error::Invalid(format!(
@@ -79,6 +96,30 @@ pub fn write_state(w: &World, params: &Params, out: &mut [f32]) -> Result<()> {
     }
     put(f64::from(w.t) / f64::from(params.world.max_steps));
     Ok(())
+}
+
+/// The entity form of the state (module docs); the world's agents fit the capacities (the
+/// params' validation checks the team sizes against them).
+fn write_entity_state(w: &World, params: &Params, out: &mut [f32]) {
+    let [x0, y0, x1, y1] = params.world.border;
+    let (cx, cy, hx, hy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0, (x1 - x0) / 2.0, (y1 - y0) / 2.0);
+    let e = &params.env.entities;
+    let width = ENTITY_STATE_FIELDS.len();
+    let n = w.n_wolves();
+    let (wolf, target) = (&params.agents.wolf, &params.agents.target);
+    out.fill(0.0);
+    let agents = w.wolves.iter().enumerate().map(|(i, a)| (i, a, i, 1, (wolf.v_max, wolf.omega_max), false));
+    let targets = w.targets.iter().enumerate().map(|(j, a)| (n + j, a, e.max_wolves + j, 2, (target.v_max, target.omega_max), w.target_captured[j]));
+    for (k, a, slot, kind, (v_max, omega_max), ended) in agents.chain(targets) {
+        let (s, c) = w.heading_sin_cos(k);
+        let row = &mut out[slot * width..(slot + 1) * width];
+        row[0] = 1.0;
+        row[kind] = 1.0;
+        for (o, x) in row[3..].iter_mut().zip([(a.pos.x - cx) / hx, (a.pos.y - cy) / hy, c, s, a.v / v_max, a.omega / omega_max, f64::from(u8::from(ended))]) {
+            *o = x as f32;
+        }
+    }
+    out[width * (e.max_wolves + e.max_targets)] = (f64::from(w.t) / f64::from(params.world.max_steps)) as f32;
 }
 
 #[cfg(test)]

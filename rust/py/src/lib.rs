@@ -221,7 +221,8 @@ fn param_limits(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
 }
 
 /// The blocks of `side`'s observation ("wolves" or "targets") under `params`, in order:
-/// a list of dicts `{name, start, size}` that tile the observation (`wolfpack_core::observe::layout`).
+/// a list of dicts `{name, start, size}` that tile the observation (`wolfpack_core::observe::layout`);
+/// an entity layout's row blocks add `rows` and `row_size`.
 #[pyfunction]
 fn observation_layout<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, side: &str) -> PyResult<Bound<'py, PyList>> {
     let p = params_from(params)?;
@@ -232,6 +233,10 @@ fn observation_layout<'py>(py: Python<'py>, params: &Bound<'py, PyAny>, side: &s
         d.set_item("name", b.name)?;
         d.set_item("start", b.start)?;
         d.set_item("size", b.len)?;
+        if b.rows > 0 {
+            d.set_item("rows", b.rows)?;
+            d.set_item("row_size", wolfpack_core::observe::ENTITY_ROW)?;
+        }
         out.append(d)?;
     }
     Ok(out)
@@ -707,6 +712,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OUTCOMES", PyTuple::new(py, wolfpack_core::world::Outcome::ALL.map(|o| o.as_str()))?)?;
     m.add("WOLF_LAWS", PyTuple::new(py, wolfpack_core::config::WolfPolicy::ALL.map(|l| l.as_str()))?)?;
     m.add("TARGET_LAWS", PyTuple::new(py, wolfpack_core::config::TargetPolicy::ALL.map(|l| l.as_str()))?)?;
+    m.add("ENTITY_FIELDS", PyTuple::new(py, wolfpack_core::observe::ENTITY_FIELDS)?)?;
+    m.add("ENTITY_STATE_FIELDS", PyTuple::new(py, wolfpack_core::state::ENTITY_STATE_FIELDS)?)?;
+    m.add("ENTITY_SCALE", wolfpack_core::observe::ENTITY_SCALE)?;
     m.add("LEARNERS", PyTuple::new(py, Learners::ALL.map(Learners::as_str))?)?;
     // The renderer's colours, for the legends and figures drawn in Python.
     m.add("WOLF_COLOURS", PyTuple::new(py, wolfpack_core::render::WOLF_COLOURS.map(|c| PyTuple::new(py, c)).into_iter().collect::<PyResult<Vec<_>>>()?)?)?;

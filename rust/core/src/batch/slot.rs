@@ -8,7 +8,7 @@ use super::output::{write_infos, SlotOut};
 use super::Learners;
 use crate::config::Params;
 use crate::error::Result;
-use crate::observe::Observer;
+use crate::observe::{side_uses_entities, Observer};
 use crate::policies::Command;
 use crate::reward::RewardState;
 use crate::world::{Layout, Outcome, World};
@@ -111,11 +111,15 @@ pub(super) fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
     if obs_w.is_empty() && obs_t.is_empty() {
         return;
     }
-    // The lidar reads the vertices of the polygons within its range: place those of a lazy
-    // world (the step placed only the ones the agents could touch or avoid).
-    let lidar = &s.world.params.env.lidar;
-    if lidar.rays > 0 {
-        let range = lidar.range;
+    // The lidar and the entity rows read the vertices of the polygons within their ranges:
+    // place those of a lazy world (the step placed only the ones the agents could touch or
+    // avoid).
+    let env = &s.world.params.env;
+    let lidar = if env.lidar.rays > 0 { env.lidar.range } else { 0.0 };
+    let p = &*s.world.params;
+    let entities = if side_uses_entities(p, "wolves") || side_uses_entities(p, "targets") { env.entities.range } else { 0.0 };
+    let range = lidar.max(entities);
+    if range > 0.0 {
         s.world.place_for_lidar(!obs_w.is_empty(), !obs_t.is_empty(), range);
     }
     let w = &s.world;

@@ -329,6 +329,49 @@ impl Default for LidarParams {
     }
 }
 
+/// How a side's observation (or the world's global state) is laid out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObservationKind {
+    /// One fixed vector whose size follows the team sizes (docs/interface.md, "Observations").
+    Flat,
+    /// The agent's own features and a padded set of entity rows with a mask
+    /// (docs/interface.md, "Entity observations"): the size follows `env.entities`' capacities
+    /// only, so one model plays any team size, target count and obstacle count within them.
+    Entities,
+}
+
+impl ObservationKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Flat => "flat",
+            Self::Entities => "entities",
+        }
+    }
+}
+
+/// The capacities and reach of entity observations (`env.observation: entities`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EntityParams {
+    /// Wolf rows: a wolf sees the other `max_wolves − 1`, a target up to `max_wolves`; must be
+    /// at least `world.wolves`.
+    pub max_wolves: usize,
+    /// Target rows; must be at least `world.targets`.
+    pub max_targets: usize,
+    /// Obstacle rows: the nearest obstacles whose surface lies within `range`, nearest first;
+    /// obstacles beyond the capacity are left out (the lidar still sees them).
+    pub max_obstacles: usize,
+    /// Metres: how far an obstacle's surface may be to get a row.
+    pub range: f64,
+}
+
+impl Default for EntityParams {
+    fn default() -> Self {
+        Self { max_wolves: 8, max_targets: 3, max_obstacles: 8, range: 5.0 }
+    }
+}
+
 /// The learning interface: action mapping and observation content.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -346,11 +389,34 @@ pub struct EnvParams {
     /// (sighted, dx/S, dy/S in the wolf's frame, age / max_steps): what global communication
     /// tells a wolf that senses nothing now, and what seed000's "remembered attraction" keeps.
     pub last_sighting: bool,
+    /// Both sides' observation layout unless a side has its own.
+    pub observation: ObservationKind,
+    /// The wolves' own layout when it differs from `observation` (None: `observation`); a
+    /// learned opponent keeps the one it was trained with, as with the action modes.
+    pub wolf_observation: Option<ObservationKind>,
+    /// The targets' own layout when it differs from `observation` (None: `observation`).
+    pub target_observation: Option<ObservationKind>,
+    /// The global state's layout (`BatchEnv.state()`, MAPPO's critic): `flat` (every agent and
+    /// obstacle by index) or `entities` (one row per agent, padded to the capacities).
+    pub state: ObservationKind,
+    pub entities: EntityParams,
 }
 
 impl Default for EnvParams {
     fn default() -> Self {
-        Self { action_mode: ActionMode::Unicycle, wolf_action_mode: None, target_action_mode: None, lidar: LidarParams::default(), interaction_row: false, last_sighting: false }
+        Self {
+            action_mode: ActionMode::Unicycle,
+            wolf_action_mode: None,
+            target_action_mode: None,
+            lidar: LidarParams::default(),
+            interaction_row: false,
+            last_sighting: false,
+            observation: ObservationKind::Flat,
+            wolf_observation: None,
+            target_observation: None,
+            state: ObservationKind::Flat,
+            entities: EntityParams::default(),
+        }
     }
 }
 
@@ -363,6 +429,21 @@ impl EnvParams {
     /// How the targets' actions become commands.
     pub fn target_mode(&self) -> ActionMode {
         self.target_action_mode.unwrap_or(self.action_mode)
+    }
+
+    /// The wolves' observation layout.
+    pub fn wolf_observation_kind(&self) -> ObservationKind {
+        self.wolf_observation.unwrap_or(self.observation)
+    }
+
+    /// The targets' observation layout.
+    pub fn target_observation_kind(&self) -> ObservationKind {
+        self.target_observation.unwrap_or(self.observation)
+    }
+
+    /// Whether any observation or the state uses entity rows (the capacities then bind).
+    pub fn uses_entities(&self) -> bool {
+        [self.wolf_observation_kind(), self.target_observation_kind(), self.state].contains(&ObservationKind::Entities)
     }
 }
 
@@ -520,6 +601,24 @@ impl Params {
             if c > w.wolves {
                 return Err(bad("capture.count", format!("{c} exceeds world.wolves = {}", w.wolves)));
             }
+        }
+
+        let e = &self.env.entities;
+        if self.env.uses_entities() {
+            // The wolves' and targets' rows are every agent: a scenario with more than the
+            // capacity would silently drop some (obstacle rows are a nearest-first selection).
+            if e.max_wolves < w.wolves {
+                return Err(bad("env.entities.max_wolves", format!("{} is below world.wolves = {}: the entity rows cannot hold every wolf", e.max_wolves, w.wolves)));
+            }
+            if e.max_targets < w.targets {
+                return Err(bad("env.entities.max_targets", format!("{} is below world.targets = {}: the entity rows cannot hold every target", e.max_targets, w.targets)));
+            }
+        }
+        let entity_side = [self.env.wolf_observation_kind(), self.env.target_observation_kind()].contains(&ObservationKind::Entities);
+        if self.env.interaction_row && entity_side {
+            // The interaction row has N + M entries: it would tie an entity observation's size
+            // to the team sizes again.
+            return Err(bad("env.interaction_row", "is not available with entity observations (its size follows the team sizes)"));
         }
 
         let f = &self.formation;

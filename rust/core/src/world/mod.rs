@@ -90,7 +90,8 @@ pub struct World {
     pub wolf_senses: Vec<bool>,
     pub target_seen_at: Vec<Option<u32>>,
     /// Where each target stood, and at which step, the last time any wolf sensed it (after a
-    /// step's moves, as the observations see it). Kept only with `env.last_sighting`.
+    /// step's moves, as the observations see it). Kept only with `env.last_sighting` or the
+    /// wolves' entity observations.
     pub target_last_sighting: Vec<Option<(Vec2, u32)>>,
     /// Whether each target's hunt is over: captured or, with `capture.cornered`, cornered. An
     /// ended target stands still, and wolves re-pick among the others.

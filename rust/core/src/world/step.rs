@@ -169,10 +169,12 @@ impl World {
         nearest_uncaptured(&self.wolves, &self.targets, &self.target_captured, &mut self.wolf_target);
     }
 
-    /// With `env.last_sighting`, records where each target stands now if any wolf senses it
-    /// (distance ≤ r_w, the sensing of the observations).
+    /// With `env.last_sighting` or entity observations for the wolves (whose target rows show
+    /// the sighting), records where each target stands now if any wolf senses it (distance ≤
+    /// r_w, the sensing of the observations).
     pub(super) fn note_sightings(&mut self) {
-        if !self.params.env.last_sighting {
+        let env = &self.params.env;
+        if !env.last_sighting && env.wolf_observation_kind() != crate::config::ObservationKind::Entities {
             return;
         }
         let r = self.params.agents.wolf.sense_radius;

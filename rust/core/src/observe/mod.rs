@@ -1,4 +1,5 @@
-//! Observations of the learning interface: fixed-size, egocentric, f32.
+//! Observations of the learning interface: fixed-size, egocentric, f32. This module writes
+//! the flat layout below; [`entities`] the entity layout (`env.observation: entities`).
 //!
 //! Relative positions are in the observer's frame (x ahead, y to the left); relative headings
 //! are sin/cos of (other θ − own θ). Layout (N wolves, M targets, K lidar rays; `S` the larger
@@ -26,6 +27,10 @@
 //! formulas a tenth of that. The tests check them against parry's `Ball`, `Segment` and `Aabb`
 //! casts, which stay the reference.
 
+mod entities;
+
+pub use entities::{capacities as entity_capacities, side_uses_entities, FIELDS as ENTITY_FIELDS, ROW as ENTITY_ROW, SCALE as ENTITY_SCALE};
+
 use crate::config::Params;
 use crate::math::{cross, Vec2};
 use crate::world::{AgentState, Obstacle, World};
@@ -33,24 +38,28 @@ use crate::world::{AgentState, Obstacle, World};
 /// Entries in the shared block (speed, turn rate, heading, walls, clock).
 pub const COMMON: usize = 9;
 
-/// Observation sizes of both sides for these params.
+/// Observation sizes of both sides for these params (either layout).
 pub fn wolf_dim(p: &Params) -> usize {
-    let (n, m) = (p.world.wolves, p.world.targets);
-    COMMON + 5 * m + 5 * (n - 1) + p.env.lidar.rays + sighting_len(p) + extra(p)
+    side_dim(p, "wolves")
 }
 
 pub fn target_dim(p: &Params) -> usize {
-    let n = p.world.wolves;
-    COMMON + 1 + 5 * n + p.env.lidar.rays + extra(p)
+    side_dim(p, "targets")
+}
+
+fn side_dim(p: &Params, side: &str) -> usize {
+    layout(p, side).and_then(|blocks| blocks.last().map(|b| b.start + b.len)).unwrap_or(0)
 }
 
 /// One block of an observation: `len` entries from `start`, named as the table of
-/// docs/interface.md ("Observations") names its rows.
+/// docs/interface.md ("Observations") names its rows. An entity layout's row blocks hold
+/// `rows` rows of [`ENTITY_ROW`] entries each; `rows` is 0 for every other block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Block {
     pub name: &'static str,
     pub start: usize,
     pub len: usize,
+    pub rows: usize,
 }
 
 /// The blocks of `side`'s observation ("wolves" or "targets") for these params, in order:
@@ -60,6 +69,15 @@ pub struct Block {
 pub fn layout(p: &Params, side: &str) -> Option<Vec<Block>> {
     let (n, m, k) = (p.world.wolves, p.world.targets, p.env.lidar.rays);
     let mut sizes: Vec<(&'static str, usize)> = vec![("speed", 1), ("turn_rate", 1), ("heading", 2), ("walls", 4), ("clock", 1)];
+    if matches!(side, "wolves" | "targets") && side_uses_entities(p, side) {
+        if side == "targets" {
+            sizes.push(("speed_cap", 1));
+        }
+        sizes.push(("lidar", k));
+        let (cw, ct, co, cwall) = entity_capacities(p, side);
+        let rows = [("wolf_rows", cw), ("target_rows", ct), ("obstacle_rows", co), ("wall_rows", cwall)];
+        return Some(tile(sizes.into_iter().map(|(name, len)| (name, len, 0)).chain(rows.into_iter().map(|(name, r)| (name, r * ENTITY_ROW, r)))));
+    }
     match side {
         "wolves" => {
             sizes.extend([("targets", 5 * m), ("wolves", 5 * (n - 1)), ("lidar", k)]);
@@ -73,17 +91,19 @@ pub fn layout(p: &Params, side: &str) -> Option<Vec<Block>> {
     if extra(p) > 0 {
         sizes.push(("interaction", extra(p)));
     }
+    Some(tile(sizes.into_iter().map(|(name, len)| (name, len, 0))))
+}
+
+/// Blocks of (name, len, rows) laid end to end from 0.
+fn tile(sizes: impl Iterator<Item = (&'static str, usize, usize)>) -> Vec<Block> {
     let mut start = 0;
-    Some(
-        sizes
-            .into_iter()
-            .map(|(name, len)| {
-                let b = Block { name, start, len };
-                start += len;
-                b
-            })
-            .collect(),
-    )
+    sizes
+        .map(|(name, len, rows)| {
+            let b = Block { name, start, len, rows };
+            start += len;
+            b
+        })
+        .collect()
 }
 
 /// Entries of the last-sighting block (wolves only).
@@ -113,6 +133,8 @@ pub struct Observer {
     ray_turn: (usize, (f64, f64)),
     /// The lidar's per-ray scratch, kept between calls.
     rays: Rays,
+    /// The entity layout's scratch.
+    entities: entities::EntityScratch,
 }
 
 impl Observer {
@@ -137,9 +159,12 @@ impl Observer {
         }
     }
 
-    /// Wolf `i`'s observation into `out` (length [`wolf_dim`]).
+    /// Wolf `i`'s observation into `out` (length [`wolf_dim`]), in the wolves' layout.
     pub fn wolf(&mut self, w: &World, i: usize, out: &mut [f32]) {
         let p = &*w.params;
+        if p.env.wolf_observation_kind() == crate::config::ObservationKind::Entities {
+            return self.wolf_entities(w, i, out);
+        }
         let me = w.wolves[i];
         let mut k = common(p, w.t, &me, self.trig[i], p.agents.wolf.v_max, p.agents.wolf.omega_max, out);
         let r = p.agents.wolf.sense_radius;
@@ -165,8 +190,7 @@ impl Observer {
             out[k] = if senses { 1.0 } else { 0.0 };
             k += 5;
         }
-        k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
-        add_lidar_noise(w, i, &mut out[k - p.env.lidar.rays..k]);
+        k += self.lidar_into(w, &me, mine, i, &mut out[k..]);
         if p.env.last_sighting {
             for sighting in &w.target_last_sighting {
                 let block = &mut out[k..k + 4];
@@ -187,18 +211,17 @@ impl Observer {
         interaction_row(w, i, &mut out[k..]);
     }
 
-    /// Target `j`'s observation into `out` (length [`target_dim`]).
+    /// Target `j`'s observation into `out` (length [`target_dim`]), in the targets' layout.
     pub fn target(&mut self, w: &World, j: usize, out: &mut [f32]) {
         let p = &*w.params;
+        if p.env.target_observation_kind() == crate::config::ObservationKind::Entities {
+            return self.target_entities(w, j, out);
+        }
         let me = w.targets[j];
         let side = &p.agents.target;
         let mine = self.trig[w.n_wolves() + j];
         let mut k = common(p, w.t, &me, mine, side.v_max, side.omega_max, out);
-        let cap = match w.target_seen_at[j] {
-            Some(seen) if side.fatigue => p.escape.fatigue_speed(seen, w.t).min(side.v_max),
-            _ => side.v_max,
-        };
-        out[k] = (cap / side.v_max) as f32;
+        out[k] = speed_cap(w, j) as f32;
         k += 1;
         let r = side.sense_radius;
         self.sort_by_distance(me.pos, &w.wolves, None);
@@ -210,9 +233,17 @@ impl Observer {
             }
             k += 5;
         }
-        k += lidar_turned(p, &me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[k..k + p.env.lidar.rays]);
-        add_lidar_noise(w, w.n_wolves() + j, &mut out[k - p.env.lidar.rays..k]);
+        k += self.lidar_into(w, &me, mine, w.n_wolves() + j, &mut out[k..]);
         interaction_row(w, w.n_wolves() + j, &mut out[k..]);
+    }
+
+    /// Agent `agent`'s lidar (pose `me`, heading sin/cos `mine`) into the first rays of `out`,
+    /// with its noise; returns the ray count.
+    fn lidar_into(&mut self, w: &World, me: &AgentState, mine: (f64, f64), agent: usize, out: &mut [f32]) -> usize {
+        let p = &*w.params;
+        let k = lidar_turned(p, me, mine, self.ray_turn.1, &w.obstacles, &mut self.rays, &mut out[..p.env.lidar.rays]);
+        add_lidar_noise(w, agent, &mut out[..k]);
+        k
     }
 
     /// Agents by distance from `from` (ties: lower index), leaving out index `skip`.
@@ -221,6 +252,18 @@ impl Observer {
         self.by_distance.extend(agents.iter().enumerate().filter(|&(j, _)| Some(j) != skip).map(|(j, a)| ((a.pos - from).norm(), j)));
         self.by_distance.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     }
+}
+
+/// Target `j`'s fatigue cap in force as a fraction of its v_max (1 before the first sighting or
+/// without fatigue).
+fn speed_cap(w: &World, j: usize) -> f64 {
+    let p = &*w.params;
+    let side = &p.agents.target;
+    let cap = match w.target_seen_at[j] {
+        Some(seen) if side.fatigue => p.escape.fatigue_speed(seen, w.t).min(side.v_max),
+        _ => side.v_max,
+    };
+    cap / side.v_max
 }
 
 /// `env.lidar.noise`: adds N(0, noise²) to each of agent `agent`'s lidar `readings` and clips
