@@ -128,9 +128,10 @@ def test_the_actor_and_critic_learning_side_by_side_give_the_weights_of_one_thre
             gen = torch.Generator().manual_seed(4)
             learner = SideLearner("wolves", algo, r, obs_dim=9, state_dim=6, agents=5, num_envs=8, device=torch.device("cpu"), generator=gen, side_by_side=side_by_side)
             data = torch.Generator().manual_seed(5)
-            for buffer in (learner.obs, learner.actions, learner.values, learner.advantages, learner.returns) + ((learner.state,) if learner.state is not None else ()):
+            rollout = learner.rollouts[0]
+            for buffer in (rollout.obs, rollout.actions, rollout.values, rollout.advantages, rollout.returns) + ((rollout.state,) if rollout.state is not None else ()):
                 buffer.normal_(generator=data)
-            learner.logp.normal_(generator=data).mul_(0.1).sub_(2.0)
+            rollout.logp.normal_(generator=data).mul_(0.1).sub_(2.0)
             stats = [learner.update(train_actor=train_actor) for _ in range(2)]
             learners.append((learner, stats))
     finally:

@@ -21,7 +21,7 @@ Public entry points (docs/interface.md in the repository has the whole interface
 """
 
 from wolfpack._core import __version__
-from wolfpack.batch import OUTCOMES, BatchEnv, observation_layout
+from wolfpack.batch import ENTITY_FIELDS, ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, observation_layout
 from wolfpack.config import DEFAULT_PARAMS_PATH, load_layout, load_params
 from wolfpack.episodes import run_episodes, summarize
 from wolfpack.models import load_policy
@@ -79,6 +79,8 @@ __all__ = [
     "load_policy",
     "OUTCOMES",
     "observation_layout",
+    "ENTITY_FIELDS",
+    "ENTITY_STATE_FIELDS",
     "parallel_env",
     "env",
     "make_vec_env",

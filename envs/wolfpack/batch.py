@@ -108,11 +108,44 @@ def observation_layout(side: str, params: str | Path | Mapping[str, Any] | None 
     ``wolves``, ``lidar``, ``last_sighting`` with ``env.last_sighting``; targets: ``speed_cap``,
     ``wolves``, ``lidar``) and ``interaction`` with ``env.interaction_row``. The table of
     docs/interface.md ("Observations") says what each entry means; the core writes by this
-    layout, so a slice taken from it stays right when the params change the sizes."""
+    layout, so a slice taken from it stays right when the params change the sizes.
+
+    With entity observations for ``side`` (``env.observation`` or its side's own key set to
+    ``entities``), the own-feature blocks are followed by ``wolf_rows``, ``target_rows``,
+    ``obstacle_rows`` and ``wall_rows``, each with ``rows`` (its capacity) and ``row_size``
+    (the entries of a row, named by :data:`ENTITY_FIELDS`; docs/interface.md, "Entity
+    observations")."""
     if side not in ("wolves", "targets"):
         raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
     check_override_keywords(overrides)
     return _core.observation_layout(resolve_params(params, overrides, task), side)
+
+
+#: The entries of an entity row and of an entity state row, in order (the core's lists).
+ENTITY_FIELDS: tuple[str, ...] = tuple(_core.ENTITY_FIELDS)
+ENTITY_STATE_FIELDS: tuple[str, ...] = tuple(_core.ENTITY_STATE_FIELDS)
+
+
+def entity_kinds(side: str, params: Mapping[str, Any]) -> set[str]:
+    """The kinds of entity row ``side``'s observation can hold under ``params``: ``wolf``,
+    ``target``, ``obstacle``, ``wall`` (a wolf of a lone wolf's pack sees no other wolf; a
+    target sees other targets only where there are several; no obstacle rows without
+    obstacles or obstacle capacity)."""
+    world, obstacles = params["world"], params["obstacles"]
+    others = {"wolves": (world["wolves"] - 1, world["targets"]), "targets": (world["wolves"], world["targets"] - 1)}[side]
+    total = sum(int(obstacles[k]) for k in ("static_circles", "moving_circles", "static_polygons", "moving_polygons"))
+    kinds = {"wall"}
+    kinds |= {"wolf"} if others[0] > 0 else set()
+    kinds |= {"target"} if others[1] > 0 else set()
+    kinds |= {"obstacle"} if total > 0 and params["env"]["entities"]["max_obstacles"] > 0 else set()
+    return kinds
+
+
+def entity_shape(side: str, params: Mapping[str, Any]) -> tuple[int, int] | None:
+    """``(own features, row size)`` of ``side``'s entity observation under validated
+    ``params``; None when that side observes the flat layout."""
+    rows = [b for b in _core.observation_layout(params, side) if "rows" in b]
+    return (rows[0]["start"], rows[0]["row_size"]) if rows else None
 
 
 class SharedObservation:
@@ -237,9 +270,11 @@ class ObservationSizeError(ValueError):
     """A learned opponent built for another observation size than its side has here (other
     params: agent counts, lidar rays, observation keys)."""
 
-    def __init__(self, message: str, wanted: int, here: int) -> None:
+    def __init__(self, message: str, wanted: int, here: int, reason: str | None = None) -> None:
         super().__init__(message)
         self.wanted, self.here = wanted, here
+        #: Why it does not fit, in a few words (a table's cell); None: the sizes say it.
+        self.reason = reason
 
 
 class BatchEnv:
@@ -349,10 +384,21 @@ class BatchEnv:
             return
         side = opponent_side(opponent, self.learners)
         ours = self.wolf_obs_dim if side == "wolves" else self.target_obs_dim
-        if opponent.obs_dim != ours:
+        if not opponent.fits(ours):
             raise ObservationSizeError(
                 f"opponent {opponent.name!r} takes {opponent.obs_dim} observations, but the {side} here have {ours} (other params, or an older observation layout)", opponent.obs_dim, ours
             )
+        seen = opponent.entity_kinds
+        if seen is not None:
+            unseen = sorted(entity_kinds(side, self.params) - set(seen))
+            if unseen:
+                rows = " and ".join(unseen)
+                raise ObservationSizeError(
+                    f"opponent {opponent.name!r} never met {rows} rows in training, and the {side} here observe them: train it where they occur (--task)",
+                    opponent.obs_dim,
+                    ours,
+                    f"it never met {rows} rows in training",
+                )
 
     def set_opponent(self, opponent: Any) -> None:
         """Swaps what drives the non-learning side from the next step on, keeping every world

@@ -36,7 +36,7 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from wolfpack.batch import OUTCOMES, BatchEnv
-from wolfpack.opponents import SIDES, Opponent, mode_key
+from wolfpack.opponents import SIDES, Opponent, bring_observation, mode_key
 from wolfpack.task import check_task, gym_id, single_target_tasks, task_params
 
 #: The arrays of ``trajectories.npz``: per step (T = all episodes' steps), per episode (K), or
@@ -83,7 +83,7 @@ def params_for(task: str, driver: Opponent, side: str) -> dict:
     if driver.kind == "scripted":
         params["policies"][side] = driver.law
     else:
-        params["env"].update(driver.observation)
+        bring_observation(params, driver.observation)
         if driver.action_mode is not None:
             params["env"][mode_key(side)] = driver.action_mode
     return params

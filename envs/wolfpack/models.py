@@ -97,12 +97,18 @@ class SavedPolicy:
     def predict(self, obs: np.ndarray, deterministic: bool = True, **_: Any) -> tuple[np.ndarray, None]:
         return self.act(obs, deterministic), None
 
+    def accepts(self, dim: int) -> bool:
+        """Whether observations of ``dim`` entries fit this model: its own size, or for a model
+        over entity observations any size with its own features and whole rows (other
+        capacities)."""
+        return dim == self.obs_dim
+
     def check(self, obs: Any) -> np.ndarray:
-        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D is not the model's."""
+        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D does not fit."""
         x = np.ascontiguousarray(obs, dtype=np.float32)
-        if x.ndim < 1 or x.shape[-1] != self.obs_dim:
+        if x.ndim < 1 or not self.accepts(x.shape[-1]):
             raise ValueError(f"model {self.name!r} takes observations [n, {self.obs_dim}], got shape {tuple(x.shape)}")
-        return x.reshape(-1, self.obs_dim)
+        return x.reshape(-1, x.shape[-1])
 
     def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
         """Actions [..., 2] for observations [..., D] (float32, clipped to [-1, 1]): the
@@ -124,17 +130,23 @@ class NativePolicy(SavedPolicy):
         from wolfpack._optional import require
 
         torch = require("torch", f"loading the model {folder}")
-        from wolfpack.learn.nets import Actor
+        from wolfpack.learn.sets import build_actor
 
         arch = config["network"]
         super().__init__(side=config["side"], algo=config["algo"], obs_dim=int(arch["obs_dim"]), config=config, name=native_label(folder, config), path=folder)
-        self.actor = Actor(**arch)
+        self.actor = build_actor(arch)
+        #: The kinds of entity row it met in training (a model over entity observations).
+        self.entity_kinds: list[str] | None = config.get("entity_kinds")
         try:
             state = torch.load(folder / POLICY_FILE, map_location="cpu", weights_only=True)
             self.actor.load_state_dict(state)
         except Exception as e:  # a truncated or foreign file: say which
             raise ValueError(f"model {folder}: cannot load {POLICY_FILE} ({type(e).__name__}: {e})") from None
         self.actor.eval()
+
+    def accepts(self, dim: int) -> bool:
+        accepts = getattr(self.actor, "accepts", None)
+        return accepts(dim) if accepts is not None else dim == self.obs_dim
 
     def _act(self, x: np.ndarray, deterministic: bool, rng: np.random.Generator | None) -> np.ndarray:
         """The clipped mean, or a draw mean + σ·ε (ε from ``rng``, default a fresh unseeded

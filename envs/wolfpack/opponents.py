@@ -59,13 +59,53 @@ def mode_key(side: str) -> str:
 #: The learning-interface keys (params ``env.*``) that shape one side's observation only: a model
 #: brings its own values of its side's keys into any world it plays in.
 SIDE_OBSERVATION_KEYS = {"wolves": ("last_sighting",), "targets": ()}
+#: Each side's own observation layout key (``flat`` or ``entities``) under ``env``.
+LAYOUT_KEY = {"wolves": "wolf_observation", "targets": "target_observation"}
+#: The capacities of entity observations (``env.entities``) a model may meet larger.
+ENTITY_CAPACITIES = ("max_wolves", "max_targets", "max_obstacles")
 
 
 def side_observation(params: dict, side: str) -> dict:
-    """``side``'s own observation keys (:data:`SIDE_OBSERVATION_KEYS`) as set in ``params``
-    (a model's training params; a key they lack is off, as in params.yaml)."""
+    """``side``'s own observation keys as set in ``params`` (a model's training params; a key
+    they lack is off, as in params.yaml): :data:`SIDE_OBSERVATION_KEYS`, its layout
+    (``wolf_observation`` / ``target_observation``: its own, else ``observation``, else flat)
+    and, for an entity layout, ``entities`` (its capacities and range)."""
     env = (params or {}).get("env") or {}
-    return {key: bool(env.get(key, False)) for key in SIDE_OBSERVATION_KEYS[side]}
+    keys: dict[str, Any] = {key: bool(env.get(key, False)) for key in SIDE_OBSERVATION_KEYS[side]}
+    layout = env.get(LAYOUT_KEY[side]) or env.get("observation") or "flat"
+    keys[LAYOUT_KEY[side]] = layout
+    if layout == "entities":
+        keys["entities"] = dict(env.get("entities") or {})
+    return keys
+
+
+def bring_observation(params: dict, observation: dict) -> None:
+    """Sets a model's own observation keys (:func:`side_observation`) in the ``env`` section of
+    ``params``, the params it plays in. Entity capacities become the largest of the model's, the
+    world's and the world's team sizes: a set network reads any number of rows, and the world
+    may hold more agents than the model was trained with."""
+    env = params["env"]
+    for key, value in observation.items():
+        if key in LAYOUT_KEY.values():
+            # Set only where it changes the side's layout: an unchanged layout keeps the params
+            # as they were (a league swaps opponents mid-episode only while the world's params
+            # stay the same).
+            if value != (env.get(key) or env.get("observation") or "flat"):
+                env[key] = value
+            continue
+        if key != "entities":
+            env[key] = value
+            continue
+        mine = dict(env.get("entities") or {})
+        merged = {**mine, **value}
+        for cap in ENTITY_CAPACITIES:
+            if cap in mine and cap in value:
+                merged[cap] = max(int(mine[cap]), int(value[cap]))
+        world = params.get("world") or {}
+        for cap, count in (("max_wolves", world.get("wolves")), ("max_targets", world.get("targets"))):
+            if isinstance(count, int) and cap in merged:
+                merged[cap] = max(int(merged[cap]), count)
+        env["entities"] = merged
 
 
 def side_action_mode(params: dict, side: str) -> str:
@@ -177,6 +217,8 @@ class Opponent:
         self.config: dict = {}
         self.model: Any = None
         self.obs_dim: int | None = None
+        #: The kinds of entity row a model over entity observations met in training (None: any).
+        self.entity_kinds: list[str] | None = None
         self._call: Callable[[np.ndarray], np.ndarray] | None = None
         #: Its side's observation keys from its training params (a model from a folder).
         self.observation: dict = {}
@@ -231,6 +273,7 @@ class Opponent:
             raise TypeError(f"opponent must be a law's name, a model path, an SB3 model or policy, or a callable obs -> actions; got {type(policy).__name__}")
         if self.model is not None:
             self._check_spaces()
+            self.entity_kinds = getattr(self.model, "entity_kinds", None)
         self.side = side
         self.action_mode = mode
         if side is not None and trained:
@@ -244,6 +287,14 @@ class Opponent:
         if getattr(act_space, "shape", None) != (2,):
             raise ValueError(f"opponent: the model's actions have shape {getattr(act_space, 'shape', None)}, a wolfpack agent's action has 2 entries")
         self.obs_dim = int(obs_space.shape[0])
+
+    def fits(self, dim: int) -> bool:
+        """Whether observations of ``dim`` entries fit it (a callable: any; a model over entity
+        observations: any capacities, :meth:`wolfpack.models.SavedPolicy.accepts`)."""
+        if self.obs_dim is None:
+            return True
+        accepts = getattr(self.model, "accepts", None)
+        return accepts(dim) if accepts is not None else dim == self.obs_dim
 
     @property
     def learned(self) -> bool:
@@ -340,6 +391,6 @@ def drivers(params: dict, learners: str, opponent: Opponent | None) -> tuple[str
         return learners, p
     if opponent.action_mode is not None:  # else the params' mode for that side
         p["env"][key] = opponent.action_mode
-    p["env"].update(opponent.observation)
+    bring_observation(p, opponent.observation)
     driven = {"wolves": {"none": "wolves", "targets": "all"}, "targets": {"none": "targets", "wolves": "all"}}[side][learners]
     return driven, p

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
+from wolfpack.learn.tasks import VARIANTS, parse_vary, task_list, world_groups
 from wolfpack.task import TASK_ORDER
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -65,7 +66,8 @@ examples:
   wolfpack train --side targets --algo ippo --opponent bvc --time-limit 10 --out runs/escape
   wolfpack train --side wolves --opponent escape --opponent results/models/escape_ppo --time-limit 15 --out runs/pool
   wolfpack train --side both --timesteps 20000000 --seed 3 --out runs/both
-  wolfpack train --side wolves --out runs/wolves --resume --time-limit 15"""
+  wolfpack train --side wolves --out runs/wolves --resume --time-limit 15
+  wolfpack train --side wolves --task all --hp network=entities --time-limit 60 --out runs/generalist"""
 
 
 def add_parser(sub, parser_class) -> argparse.ArgumentParser:
@@ -94,7 +96,26 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     )
     scenario = p.add_mutually_exclusive_group()
     scenario.add_argument("--params", metavar="P", default=None, help="scenario YAML (default: the packaged params.yaml)")
-    scenario.add_argument("--task", metavar="NAME", default=None, choices=TASK_ORDER, help=f"train on a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}")
+    scenario.add_argument(
+        "--task",
+        metavar="NAME",
+        action="append",
+        default=None,
+        help=f"train on a task of the benchmark suite (docs/tasks.md): {', '.join(TASK_ORDER)}; repeated, or 'all': one model over several tasks, each with its share of the worlds",
+    )
+    p.add_argument(
+        "--vary",
+        metavar="KEY=LO:HI",
+        action="append",
+        default=[],
+        help=f"with --task: draw a params key within a range, e.g. world.wolves=3:8 (repeatable; {VARIANTS} groups of worlds per task, each with its own draw)",
+    )
+    p.add_argument(
+        "--task-weights",
+        choices=("uniform", "adaptive"),
+        default="uniform",
+        help="how the tasks weigh in the update: uniform (default), or adaptive (after each held-out evaluation, in proportion to how often the learner fails on each)",
+    )
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="params override, e.g. --set world.wolves=8 (repeatable)")
     p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
     p.add_argument("--device", choices=DEVICES, default="auto", help="where the networks run: auto (CUDA when present), cpu or cuda; the worlds always step on the CPU")
@@ -135,6 +156,8 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
         seed=args.seed,
         params=args.params,
         task=args.task,
+        vary=parse_vary(args.vary),
+        task_weights=args.task_weights,
         overrides=overrides,
         hp=hp,
         opponent=args.opponent,
@@ -272,7 +295,9 @@ def run_training(
     params,
     overrides: dict,
     hp: dict,
-    task: str | None = None,
+    task: str | Sequence[str] | None = None,
+    vary: dict | None = None,
+    task_weights: str = "uniform",
     opponent,
     device: str,
     threads,
@@ -322,7 +347,22 @@ def run_training(
         # A law opponent is the params' law of that side: the saved models then say in their
         # params what they were trained against.
         overrides[f"policies.{other}"] = opponent
-    resolved = resolve_params(params, overrides, task)
+    tasks = task_list([task] if isinstance(task, str) else task)
+    if task_weights not in ("uniform", "adaptive"):
+        raise ValueError(f"--task-weights must be uniform or adaptive, got {task_weights!r}")
+    if vary and not tasks:
+        raise ValueError("--vary needs --task: it varies the tasks' worlds")
+    groups: list = []
+    eval_tasks: list = []
+    if len(tasks) > 1 or vary:
+        if params is not None:
+            raise ValueError("--params and --task are exclusive: the tasks are the scenarios")
+        if imitate_min is not None:
+            raise ValueError("--imitate trains on one scenario: give one --task (or none) with it")
+        groups, eval_tasks = world_groups(tasks, vary or {}, seed, lambda name, extra: resolve_params(None, {**overrides, **extra}, name))
+        resolved = eval_tasks[0][1]
+    else:
+        resolved = resolve_params(params, overrides, tasks[0] if tasks else None)
     cores_env, cores_torch = default_threads()
     spec = TrainSpec(
         learners=learners,
@@ -341,6 +381,9 @@ def run_training(
         evaluations=evaluations,
         imitate_min=imitate_min,
         command=command,
+        groups=tuple(groups),
+        eval_tasks=tuple(eval_tasks),
+        task_weights=task_weights,
     )
     out = Path(out)
     prepare_out(out, resume, spec.identity())
@@ -357,7 +400,8 @@ def run_training(
         out.mkdir(parents=True, exist_ok=True)
         config = {
             **spec.identity(),
-            "task": task,
+            "task": tasks[0] if len(tasks) == 1 else (tasks or None),
+            "vary": {key: list(span) for key, span in (vary or {}).items()} or None,
             "trainer": "wolfpack train",
             "timesteps": timesteps,
             "time_limit_min": time_limit_min,

@@ -10,6 +10,10 @@ import yaml
 
 RECIPES_PATH = Path(__file__).with_name("recipes.yaml")
 LEARNERS = ("wolves", "targets", "both")
+NETWORKS = ("mlp", "entities")
+#: The set network's poolings (wolfpack.learn.sets.POOLS; spelled here so that checking a
+#: recipe does not import torch).
+POOLS = ("attention", "mean_max")
 ALGOS = ("ippo", "mappo")
 # Recipe keys that are params overrides rather than hyperparameters: the learning side's reward
 # weights (params rewards.<side>.*) and the learning interface (params env.*).
@@ -63,6 +67,13 @@ def _check(r: dict) -> None:
         "a list of layer widths, e.g. [64, 64]",
     )
     need("activation", r["activation"] in ("tanh", "relu"), "'tanh' or 'relu'")
+    need("network", r["network"] in NETWORKS, " or ".join(repr(n) for n in NETWORKS))
+    need("pool", r["pool"] in POOLS, " or ".join(repr(n) for n in POOLS))
+    for key in ("entity_width", "heads"):
+        need(key, isinstance(r[key], int) and not isinstance(r[key], bool) and 1 <= r[key] <= 4096, "an integer in [1, 4096]")
+    need("entity_width", r["entity_width"] % r["heads"] == 0, f"a multiple of heads ({r['heads']})")
+    # A one-hot agent id ties the model to one team size, what the set network is for undoing.
+    need("agent_id", not (r["agent_id"] and r["network"] == "entities"), "false with network: entities (an agent id ties the model to one team size)")
     for key in ("anneal_lr", "agent_id", "norm_obs", "norm_reward"):
         need(key, isinstance(r[key], bool), "true or false")
     need("rewards", isinstance(r["rewards"], dict), "a mapping of the side's reward keys")
@@ -87,4 +98,14 @@ def params_overrides(side: str, r: dict) -> dict:
     (weights change what the learner is paid, env keys what it observes), so a model trained
     with them is evaluated on the same outcomes as any other; the saved model's params carry
     them, so it is loaded with the observation it was trained on."""
-    return {**{f"rewards.{side}.{k}": v for k, v in r["rewards"].items()}, **{f"env.{k}": v for k, v in r["env"].items()}}
+    overrides = {**{f"rewards.{side}.{k}": v for k, v in r["rewards"].items()}, **{f"env.{k}": v for k, v in r["env"].items()}}
+    if r["network"] == "entities":
+        # The set network reads entity rows: its side observes them, and the state (MAPPO's
+        # critic) takes the same form.
+        overrides.setdefault(f"env.{OBSERVATION_KEY[side]}", "entities")
+        overrides.setdefault("env.state", "entities")
+    return overrides
+
+
+#: The params key under ``env`` of each side's own observation layout.
+OBSERVATION_KEY = {"wolves": "wolf_observation", "targets": "target_observation"}

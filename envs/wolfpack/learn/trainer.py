@@ -39,7 +39,7 @@ import torch
 import yaml
 
 import wolfpack
-from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
 from wolfpack.models import POLICY_FILE
@@ -77,6 +77,16 @@ class TrainSpec:
     imitate_min: float | None = None
     command: str = ""
     extra: dict = field(default_factory=dict)
+    #: Multi-task training: the groups of worlds the batch is split into, ``(label, task,
+    #: params)`` each (one per task, or per task and ``--vary`` draw); a batch holds worlds of
+    #: one params, so each group is a batch of its own, stepped in turn. Empty: one group of
+    #: ``params``.
+    groups: tuple[tuple[str, str, dict], ...] = ()
+    #: The tasks of the held-out evaluations, ``(task, params)`` each; empty: ``params``.
+    eval_tasks: tuple[tuple[str, dict], ...] = ()
+    #: How the groups weigh in the update: ``uniform``, or ``adaptive`` (after each held-out
+    #: evaluation, each task in proportion to how often the learner fails there).
+    task_weights: str = "uniform"
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -88,6 +98,9 @@ class TrainSpec:
         identity = {"learners": self.learners, "algo": self.algo, "opponent": self.opponent, "params": self.params, "recipes": self.recipes, "seed": self.seed}
         if len(self.opponent_pool) > 1:
             identity["opponent_pool"] = list(self.opponent_pool)
+        if self.groups:
+            identity["groups"] = [{"label": label, "task": task, "params": params} for label, task, params in self.groups]
+            identity["task_weights"] = self.task_weights
         return identity
 
 
@@ -142,11 +155,24 @@ class Trainer:
         self.opponents = opponents
         opponent = self._opponent() if opponents is None else opponents()
         world_seed = TRAIN_SEED_BASE * (spec.seed + 1) + self.num_envs * self.resumes
+        groups = spec.groups or (("", "", spec.params),)
+        if self.num_envs < len(groups):
+            raise ValueError(f"num_envs {self.num_envs} is below the {len(groups)} groups of worlds (one per task and --vary draw): raise it with --hp num_envs=N")
+        # The worlds split as evenly as they go; group g's worlds are seeded after those of the
+        # groups before it, so that no two training worlds share a seed.
+        sizes = [self.num_envs // len(groups) + (1 if g < self.num_envs % len(groups) else 0) for g in range(len(groups))]
+        offsets = np.cumsum([0, *sizes[:-1]]).tolist()
         # MAPPO's critic reads every world's state after every step: written by each world's
         # own task in the step (with_state) rather than by a serial pass after it.
-        self.env = BatchEnv(spec.params, num_envs=self.num_envs, learners=learners, seed=world_seed, threads=spec.threads, opponent=opponent, with_state=spec.algo == "mappo")
-        for member in pool_members:  # every pool member fits these worlds, up front
-            self.env._check_opponent_fits(member)
+        self.envs = [
+            BatchEnv(params, num_envs=e, learners=learners, seed=world_seed + offset, threads=spec.threads, opponent=opponent, with_state=spec.algo == "mappo")
+            for (_, _, params), e, offset in zip(groups, sizes, offsets)
+        ]
+        self.env = self.envs[0]
+        self.group_tasks = [task for _, task, _ in groups]
+        for env in self.envs:
+            for member in pool_members:  # every pool member fits these worlds, up front
+                env._check_opponent_fits(member)
         # Torch's threads: one for the rollout's forward passes (E x K rows: too small to share; on
         # the 2-core VM two threads made the rollout 1.6-1.8x slower, and the batch's threads need
         # the cores then); in the update, the actor and the critic side by side on CPUs with two
@@ -156,21 +182,28 @@ class Trainer:
         self._threads = {"rollout": 1 if self.device.type == "cpu" else torch_threads, "update": torch_threads // 2 if side_by_side else torch_threads, "rest": torch_threads}
         self.learners: dict[str, SideLearner] = {}
         for side in spec.sides:
+            obs_dims = {env.wolf_obs_dim if side == "wolves" else env.target_obs_dim for env in self.envs}
+            state_dims = {env.state_dim for env in self.envs}
+            if len(obs_dims) > 1 or len(state_dims) > 1:
+                what = "observation" if len(obs_dims) > 1 else "global state"
+                raise ValueError(
+                    f"the tasks give the {side} {what}s of different sizes ({', '.join(map(str, sorted(obs_dims if len(obs_dims) > 1 else state_dims)))}): train one model over them with entity observations (--hp network=entities)"
+                )
             self.learners[side] = SideLearner(
                 side,
                 spec.algo,
                 spec.recipes[side],
-                obs_dim=self.env.wolf_obs_dim if side == "wolves" else self.env.target_obs_dim,
-                state_dim=self.env.state_dim,
-                agents=self.env.n_wolves if side == "wolves" else self.env.n_targets,
-                num_envs=self.num_envs,
+                obs_dim=obs_dims.pop(),
+                state_dim=state_dims.pop(),
+                groups=[(env.num_envs, env.n_wolves if side == "wolves" else env.n_targets) for env in self.envs],
+                entity_shape=_entity_shape(side, self.env.params),
                 device=self.device,
                 generator=self.generator,
                 side_by_side=side_by_side,
             )
         if state is not None:
             self._restore(state)
-        self.agents_per_step = self.num_envs * sum(learner.agents for learner in self.learners.values())
+        self.agents_per_step = sum(env.num_envs * sum(env.n_wolves if side == "wolves" else env.n_targets for side in spec.sides) for env in self.envs)
         self.evaluations: list[dict] = json.loads((self.out / "evaluations.json").read_text()) if resume and (self.out / "evaluations.json").is_file() else []
 
     # --- set-up -----------------------------------------------------------------------------------
@@ -220,6 +253,8 @@ class Trainer:
         for side, learner in self.learners.items():
             learner.load_state_dict(state["learners"][side])
         self.generator.set_state(state["generator"].cpu() if self.device.type == "cpu" else state["generator"])
+        for side, weights in (state.get("group_weights") or {}).items():
+            self.learners[side].group_weights = list(weights)
         self.updates, self.agent_steps, self.train_s_before = int(state["updates"]), int(state["agent_steps"]), float(state["train_s"])
 
     # --- the budget -------------------------------------------------------------------------------
@@ -248,6 +283,9 @@ class Trainer:
         self.out.mkdir(parents=True, exist_ok=True)
         csv_path = self.out / "progress.csv"
         columns = list(BASE_COLUMNS) + [f"{s}_{c}" for s in spec.sides for c in SIDE_COLUMNS] + [f"eval_{s}_{c}" for s in spec.sides for c in EVAL_COLUMNS]
+        # Multi-task: each task's held-out rates too, and the weight its worlds have in the update.
+        columns += [f"eval_{task}_{s}_{c}" for task, _ in spec.eval_tasks for s in spec.sides for c in EVAL_COLUMNS[:2]]
+        columns += [f"weight_{task}" for task in dict.fromkeys(self.group_tasks) if spec.groups]
         new_csv = not csv_path.is_file()
         csv_file = open(csv_path, "a", newline="")
         writer = csv.DictWriter(csv_file, fieldnames=columns)
@@ -278,12 +316,12 @@ class Trainer:
                 eval_s += time.perf_counter() - te
                 (self.out / "imitation.json").write_text(json.dumps(rounds, indent=1) + "\n")
                 critic_only = self.CRITIC_WARMUP_UPDATES
-            out = self.env.reset()
+            outs = [env.reset() for env in self.envs]
             # The step's outputs go into these arrays, step after step (the learners copy what
             # they keep into their rollout buffers); made anew when the opponent changes, since
             # a learned opponent's observations are among them.
-            buffers = self.env.new_outputs()
-            ep_return = {side: np.zeros(self.num_envs) for side in spec.sides}
+            buffers = [env.new_outputs() for env in self.envs]
+            ep_return = {side: [np.zeros(env.num_envs) for env in self.envs] for side in spec.sides}
             while True:
                 train_s = time.perf_counter() - t_start - eval_s
                 fraction = self._fraction_done(train_s)
@@ -291,30 +329,33 @@ class Trainer:
                     break
                 t0 = time.perf_counter()
                 if self.opponents is not None and rollouts > 0:
-                    self.env.set_opponent(self.opponents())
-                    buffers = self.env.new_outputs()
+                    drawn = self.opponents()
+                    for env in self.envs:
+                        env.set_opponent(drawn)
+                    buffers = [env.new_outputs() for env in self.envs]
                 rollouts += 1
                 torch.set_num_threads(self._threads["rollout"])
                 outcomes = np.zeros(len(OUTCOMES), np.int64)
                 finished_returns: dict[str, list[float]] = {side: [] for side in spec.sides}
                 for t in range(self.n_steps):
-                    state = out.get("state")
-                    actions = {side: learner.act(t, out[f"obs_{side}"], state) for side, learner in self.learners.items()}
-                    out = self.env.step(actions.get("wolves"), actions.get("targets"), out=buffers)
-                    done_np = out["terminated"] | out["truncated"]
-                    done = torch.from_numpy(done_np)
-                    for side, learner in self.learners.items():
-                        rewards = out[f"rewards_{side}"]
-                        learner.record(t, rewards, done)
-                        ep_return[side] += rewards.mean(axis=1)
-                    if done_np.any():
-                        outcomes += np.bincount(out["outcome"][done_np], minlength=len(OUTCOMES))
-                        for side in spec.sides:
-                            finished_returns[side].extend(ep_return[side][done_np].tolist())
-                            ep_return[side][done_np] = 0.0
-                state = out.get("state")
+                    for g, env in enumerate(self.envs):
+                        out = outs[g]
+                        state = out.get("state")
+                        actions = {side: learner.act(t, out[f"obs_{side}"], state, g) for side, learner in self.learners.items()}
+                        out = outs[g] = env.step(actions.get("wolves"), actions.get("targets"), out=buffers[g])
+                        done_np = out["terminated"] | out["truncated"]
+                        done = torch.from_numpy(done_np)
+                        for side, learner in self.learners.items():
+                            rewards = out[f"rewards_{side}"]
+                            learner.record(t, rewards, done, g)
+                            ep_return[side][g] += rewards.mean(axis=1)
+                        if done_np.any():
+                            outcomes += np.bincount(out["outcome"][done_np], minlength=len(OUTCOMES))
+                            for side in spec.sides:
+                                finished_returns[side].extend(ep_return[side][g][done_np].tolist())
+                                ep_return[side][g][done_np] = 0.0
                 for side, learner in self.learners.items():
-                    learner.finish_rollout(out[f"obs_{side}"], state)
+                    learner.finish_rollout([out[f"obs_{side}"] for out in outs], [out.get("state") for out in outs])
                 t1 = time.perf_counter()
                 torch.set_num_threads(self._threads["update"])
                 for side, learner in self.learners.items():
@@ -408,32 +449,68 @@ class Trainer:
             for k in SIDE_COLUMNS[1:-1]:
                 row[f"{side}_{k}"] = stats[side][k]
             row[f"{side}_learning_rate"] = self.learners[side].optimizer.param_groups[0]["lr"]
+        if self.spec.groups:
+            weights = self.learners[self.spec.sides[0]].group_weights
+            for task, w in zip(self.group_tasks, weights):
+                row[f"weight_{task}"] = w
         return row
 
     # --- evaluation --------------------------------------------------------------------------------
 
     def _evaluate(self, train_s: float, phase: str = "ppo") -> dict:
         """Each learning side, deterministic, on the held-out episodes HELD_OUT_SEED + k against
-        the opponent it trains against (both sides learning: the other side's law in params).
-        ``train_s``: the run's training seconds so far (evaluations excluded)."""
+        the opponent it trains against (both sides learning: the other side's law in params);
+        multi-task, on each task's held-out episodes, the rates averaged over the tasks and each
+        task's kept under ``tasks``. ``train_s``: the run's training seconds so far (evaluations
+        excluded)."""
         row = {}
-        record = {"agent_steps": self.agent_steps, "update": self.updates, "train_s": train_s, "phase": phase}
+        record: dict[str, Any] = {"agent_steps": self.agent_steps, "update": self.updates, "train_s": train_s, "phase": phase}
+        tasks = self.spec.eval_tasks or (("", self.spec.params),)
         for side, learner in self.learners.items():
             policy = learner.policy()
-            opponent = self.spec.opponent if self.spec.learners != "both" else None
-            results = rollout(self.spec.params, episodes=self.spec.eval_episodes, seed=HELD_OUT_SEED, threads=self.spec.threads, opponent=opponent, **{side: policy})
-            wolves = self.spec.params["policies"]["wolves"] if side == "targets" else side
-            targets = self.spec.params["policies"]["targets"] if side == "wolves" else side
-            if opponent is not None:
-                wolves, targets = (wolves, str(opponent)) if side == "wolves" else (str(opponent), targets)
-            r = report(results, wolves, targets)
-            r.pop("capture_steps")
+            reports = {task: self._held_out(side, policy, params) for task, params in tasks}
+            if self.spec.eval_tasks:
+                r = {k: _mean_of(rep[k] for rep in reports.values()) for k in EVAL_COLUMNS}
+                record.setdefault("tasks", {})
+                for task, rep in reports.items():
+                    record["tasks"].setdefault(task, {})[side] = rep
+                    for k in EVAL_COLUMNS[:2]:
+                        row[f"eval_{task}_{side}_{k}"] = rep[k]
+            else:
+                r = reports[""]
             record[side] = r
             for k in EVAL_COLUMNS:
                 row[f"eval_{side}_{k}"] = r[k]
+        if self.spec.eval_tasks and self.spec.task_weights == "adaptive":
+            self._reweigh(record["tasks"])
         self.evaluations.append(record)
         (self.out / "evaluations.json").write_text(json.dumps(self.evaluations, indent=1) + "\n")
         return row
+
+    def _held_out(self, side: str, policy, params: dict) -> dict:
+        """The report of ``side``'s ``policy`` on the held-out episodes of ``params``."""
+        opponent = self.spec.opponent if self.spec.learners != "both" else None
+        results = rollout(params, episodes=self.spec.eval_episodes, seed=HELD_OUT_SEED, threads=self.spec.threads, opponent=opponent, **{side: policy})
+        wolves = params["policies"]["wolves"] if side == "targets" else side
+        targets = params["policies"]["targets"] if side == "wolves" else side
+        if opponent is not None:
+            wolves, targets = (wolves, str(opponent)) if side == "wolves" else (str(opponent), targets)
+        r = report(results, wolves, targets)
+        r.pop("capture_steps")
+        return r
+
+    #: Adaptive task weights: a task's weight is its failure rate plus this floor (so that a
+    #: solved task keeps some weight), the weights scaled to mean 1 over the groups.
+    WEIGHT_FLOOR = 0.05
+
+    def _reweigh(self, per_task: dict[str, dict]) -> None:
+        """Moves each side's group weights towards the tasks it does worst on (held-out rates:
+        the wolves' failure is 1 − capture rate, the targets' the capture rate)."""
+        for side, learner in self.learners.items():
+            failure = {task: (1.0 - reps[side]["capture_rate"]) if side == "wolves" else reps[side]["capture_rate"] for task, reps in per_task.items()}
+            raw = [failure[task] + self.WEIGHT_FLOOR for task in self.group_tasks]
+            mean = sum(raw) / len(raw)
+            learner.group_weights = [w / mean for w in raw]
 
     # --- saving ------------------------------------------------------------------------------------
 
@@ -453,6 +530,7 @@ class Trainer:
                 "checkpoint_steps": self.agent_steps if checkpoint else None,
                 "agent_steps": self.agent_steps,
                 "network": learner.network,
+                **({"entity_kinds": sorted(set().union(*(entity_kinds(side, env.params) for env in self.envs)))} if learner.network.get("kind") == "entities" else {}),
                 "recipe": self.spec.recipes[side],
                 "opponent": self.spec.opponent,
                 "opponent_pool": list(self.spec.opponent_pool) if len(self.spec.opponent_pool) > 1 else None,
@@ -466,12 +544,26 @@ class Trainer:
         state = {
             "learners": {side: learner.state_dict() for side, learner in self.learners.items()},
             "generator": self.generator.get_state(),
+            "group_weights": {side: list(learner.group_weights) for side, learner in self.learners.items()},
             "updates": self.updates,
             "agent_steps": self.agent_steps,
             "train_s": self.train_s_before + train_s,
             "resumes": self.resumes,
         }
         _write(folder / TRAINER_FILE, lambda p: torch.save(state, p))
+
+
+def _mean_of(values) -> float | None:
+    """The mean of the values that are numbers (a median capture step is None where nothing was
+    captured); None when none is."""
+    numbers = [float(v) for v in values if v is not None]
+    return float(np.mean(numbers)) if numbers else None
+
+
+def _entity_shape(side: str, params: dict) -> tuple[int, int, int] | None:
+    """(own features, row size, state row size) of ``side``'s entity observation, or None."""
+    shape = entity_shape(side, params)
+    return (*shape, len(ENTITY_STATE_FIELDS)) if shape else None
 
 
 def _write(path: Path, writer) -> None:

@@ -1,0 +1,237 @@
+"""Networks over entity observations (``env.observation: entities``): one model for any team
+size, target count and obstacle count within the capacities it is played with.
+
+An entity observation is the agent's own features followed by rows of ``row_size`` fields
+(docs/interface.md, "Entity observations"); field 0 of a row is its mask (1 present, 0
+padding) and fields 1–4 its type, one-hot. The networks here never depend on the number of
+rows: each row goes through one shared encoder, and the rows are pooled over the mask.
+
+Two poolings, chosen by the recipe's ``pool``:
+
+- ``attention``: multi-head attention pooling with the agent's own embedding as the query
+  (the agent decides which entities matter to it), over the row embeddings as keys and values.
+  The keys are the row embeddings themselves and the values too (no key or value projection):
+  a projection of every row costs rows × width² multiply-adds per agent, more than the rest
+  of the network together, while the query's projection is paid once per agent.
+- ``mean_max``: the masked mean and the masked maximum of the row embeddings, concatenated
+  (Deep Sets with two symmetric poolings).
+
+Normalisation is per field, not per slot (:class:`EntityNorm`): the statistics of a row field
+are gathered over present rows only and shared by every row, so that they do not depend on
+which slot a row lands in or on how many slots there are.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from wolfpack.learn.nets import LOG_2PI, Actor, RunningNorm, mlp
+from wolfpack.learn.recipes import POOLS
+
+#: Fields 0..MASKED-1 of a row (the mask and the type) pass through normalisation unchanged.
+MASKED = 5
+
+
+class EntityNorm(nn.Module):
+    """Running normalisation of entity observations [..., D]: the own features by
+    :class:`RunningNorm`, the row fields from :data:`MASKED` on by one shared
+    :class:`RunningNorm` over present rows; padding rows stay all zero. The same interface as
+    :class:`RunningNorm` (``forward``, ``normalise_``, ``accumulate``, ``commit``)."""
+
+    def __init__(self, self_dim: int, row_size: int, enabled: bool = True) -> None:
+        super().__init__()
+        self.self_dim, self.row_size, self.enabled = self_dim, row_size, enabled
+        self.own = RunningNorm(self_dim, enabled=enabled)
+        self.rows = RunningNorm(row_size - MASKED, enabled=enabled)
+
+    def _split(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        rows = x[..., self.self_dim :]
+        return x[..., : self.self_dim], rows.reshape(*x.shape[:-1], rows.shape[-1] // self.row_size, self.row_size)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.normalise_(x.clone()) if self.enabled else x
+
+    def normalise_(self, x: torch.Tensor) -> torch.Tensor:
+        if not self.enabled:
+            return x
+        own, rows = self._split(x)
+        self.own.normalise_(own)
+        fields = rows[..., MASKED:]
+        self.rows.normalise_(fields)
+        fields.mul_(rows[..., :1])  # padding rows back to zero
+        return x
+
+    def accumulate(self, x: torch.Tensor) -> None:
+        if not self.enabled:
+            return
+        own, rows = self._split(x)
+        self.own.accumulate(own)
+        flat = rows.reshape(-1, self.row_size)
+        self.rows.accumulate(flat[flat[:, 0] > 0.5, MASKED:])
+
+    @torch.no_grad()
+    def commit(self) -> None:
+        self.own.commit()
+        self.rows.commit()
+
+
+class SetNet(nn.Module):
+    """Entity observation [..., D] (normalised) → [..., out]: own features and pooled rows,
+    then an MLP of widths ``hidden``. ``out_gain`` is the last layer's initial gain.
+
+    The row encoder is one linear layer and a ReLU whatever the recipe's activation: its
+    output is rows × width per agent, by far the largest tensor of an update, and on the CPU
+    its elementwise passes cost more than its matrix product (tanh's forward and backward
+    alone took a third of a minibatch's time, BENCHMARKS.md "Entity observations"). With
+    ReLU every embedding is ≥ 0, so the masked maximum is the maximum of the masked
+    embeddings (padding rows are 0)."""
+
+    def __init__(self, self_dim: int, row_size: int, width: int, hidden: list[int], out: int, activation: str, pool: str, heads: int, out_gain: float) -> None:
+        super().__init__()
+        if pool not in POOLS:
+            raise ValueError(f"pool must be one of {', '.join(POOLS)}, got {pool!r}")
+        if width % heads:
+            raise ValueError(f"entity_width {width} must be a multiple of the {heads} attention heads")
+        self.self_dim, self.row_size, self.width, self.pool, self.heads = self_dim, row_size, width, pool, heads
+        self.own = mlp([self_dim, width], "relu", 2**0.5)
+        self.encode = mlp([row_size, width], "relu", 2**0.5)
+        pooled = width if pool == "attention" else 2 * width
+        if pool == "attention":
+            self.query = nn.Linear(width, width)
+            nn.init.orthogonal_(self.query.weight, 1.0)
+            nn.init.zeros_(self.query.bias)
+        self.head = mlp([width + pooled, *hidden, out], activation, out_gain)
+
+    def embed(self, x: torch.Tensor) -> torch.Tensor:
+        """The features the head reads, [..., width + pooled]."""
+        lead = x.shape[:-1]
+        x = x.reshape(-1, x.shape[-1])
+        rows = x[:, self.self_dim :].reshape(x.shape[0], -1, self.row_size)  # [B, R, F]
+        mask = rows[:, :, :1]  # [B, R, 1]: 1 present, 0 padding
+        own = torch.relu(self.own(x[:, : self.self_dim]))
+        e = torch.relu(self.encode(rows)) * mask  # [B, R, W], padding rows 0
+        if self.pool == "attention":
+            pooled = self._attend(own, e, mask)
+        else:
+            pooled = torch.cat([e.sum(1) / mask.sum(1).clamp(min=1.0), e.amax(1)], -1)
+        return torch.cat([own, pooled], -1).reshape(*lead, -1)
+
+    def _attend(self, own: torch.Tensor, e: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        b, r = e.shape[0], e.shape[1]
+        h, d = self.heads, self.width // self.heads
+        q = self.query(own).reshape(b, h, d, 1)
+        keys = e.reshape(b, r, h, d).transpose(1, 2)  # [B, H, R, d]
+        scores = torch.matmul(keys, q).squeeze(-1) / d**0.5  # [B, H, R]
+        # A large negative, not -inf: a world with no present row (never the case, the walls
+        # are always there) then averages its zero rows instead of dividing by zero.
+        scores = scores.masked_fill(mask.reshape(b, 1, r) < 0.5, -1e9)
+        weights = torch.softmax(scores, dim=-1).unsqueeze(-2)  # [B, H, 1, R]
+        return torch.matmul(weights, keys).reshape(b, self.width)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.embed(x))
+
+
+class EntityActor(nn.Module):
+    """The policy of one side over entity observations: the same interface as
+    :class:`wolfpack.learn.nets.Actor` (``norm``, ``inputs``, ``body``, ``mean``,
+    ``deterministic``, ``log_prob``, ``entropy``), with a :class:`SetNet` as its body. It has
+    no agent id: one model plays any team size."""
+
+    kind = "entities"
+    agent_id = False
+
+    def __init__(
+        self,
+        self_dim: int,
+        row_size: int,
+        hidden: list[int],
+        entity_width: int,
+        pool: str,
+        heads: int,
+        activation: str,
+        log_std_init: float,
+        norm_obs: bool,
+        obs_dim: int | None = None,
+        agents: int | None = None,
+    ) -> None:
+        super().__init__()
+        self.self_dim, self.row_size, self.obs_dim, self.agents = self_dim, row_size, obs_dim, agents
+        self.norm = EntityNorm(self_dim, row_size, enabled=norm_obs)
+        self.body = SetNet(self_dim, row_size, entity_width, hidden, 2, activation, pool, heads, 0.01)
+        self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
+
+    def accepts(self, dim: int) -> bool:
+        """Whether observations of ``dim`` entries fit: the same own features and whole rows."""
+        return dim > self.self_dim and (dim - self.self_dim) % self.row_size == 0
+
+    def inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
+        return normed_obs
+
+    def mean(self, normed_obs: torch.Tensor) -> torch.Tensor:
+        return self.body(normed_obs)
+
+    @torch.no_grad()
+    def deterministic(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.mean(self.norm(obs)).clamp(-1.0, 1.0)
+
+    def log_prob(self, mean: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        z = (actions - mean) * torch.exp(-self.log_std)
+        return -(0.5 * z * z + self.log_std + 0.5 * LOG_2PI).sum(-1)
+
+    def entropy(self) -> torch.Tensor:
+        return (self.log_std + 0.5 * (1.0 + LOG_2PI)).sum()
+
+
+class EntityCritic(nn.Module):
+    """The value function over entity observations, with the same ``value(agent_inputs,
+    normed_state)`` interface as :class:`wolfpack.learn.nets.Critic`.
+
+    IPPO: a :class:`SetNet` over the agent's own entity observation. MAPPO: the world's entity
+    state (``env.state: entities``: one row per agent of :data:`wolfpack.ENTITY_STATE_FIELDS`,
+    then the clock) through a shared row encoder pooled by masked mean and maximum, once per
+    world, and the agent's own features (not its rows): the state already holds every agent,
+    and encoding each agent's rows again for the critic would double the update's largest
+    cost for what the actor's rows add to the value (the obstacles near the agent)."""
+
+    def __init__(self, self_dim: int, row_size: int, state_dim: int, state_row: int, hidden: list[int], entity_width: int, pool: str, heads: int, activation: str, norm_obs: bool) -> None:
+        super().__init__()
+        self.self_dim, self.state_dim, self.state_row = self_dim, state_dim, state_row
+        # The entity state's entries are already in [-1, 1] and its padding must stay zero.
+        self.state_norm = RunningNorm(state_dim, enabled=False) if state_dim else None
+        width = entity_width
+        if state_dim:
+            self.own = mlp([self_dim, width], "relu", 2**0.5)
+            self.state_rows = mlp([state_row, width], "relu", 2**0.5)
+            self.body = mlp([3 * width + 1, *hidden, 1], activation, 1.0)
+        else:
+            self.trunk = SetNet(self_dim, row_size, width, hidden, 1, activation, pool, heads, 1.0)
+
+    def agent_inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
+        return normed_obs
+
+    def _state_features(self, s: torch.Tensor) -> torch.Tensor:
+        """[..., S] → [..., 2·width + 1]: pooled agent rows and the clock."""
+        lead = s.shape[:-1]
+        flat = s.reshape(-1, s.shape[-1])
+        rows = flat[:, :-1].reshape(flat.shape[0], -1, self.state_row)
+        mask = rows[:, :, :1]
+        e = torch.relu(self.state_rows(rows)) * mask
+        pooled = torch.cat([e.sum(1) / mask.sum(1).clamp(min=1.0), e.amax(1), flat[:, -1:]], -1)
+        return pooled.reshape(*lead, -1)
+
+    def value(self, agent_inputs: torch.Tensor, normed_state: torch.Tensor | None) -> torch.Tensor:
+        if not self.state_dim:
+            return self.trunk(agent_inputs).squeeze(-1)
+        own = torch.relu(self.own(agent_inputs[..., : self.self_dim]))  # [..., K, W]
+        world = self._state_features(normed_state).unsqueeze(-2).expand(*own.shape[:-1], -1)
+        return self.body(torch.cat([own, world], -1)).squeeze(-1)
+
+
+def build_actor(arch: dict) -> nn.Module:
+    """The actor a saved model's ``network`` entry describes: ``kind: entities`` an
+    :class:`EntityActor`, anything else (models saved before entity observations have no
+    ``kind``) the flat :class:`wolfpack.learn.nets.Actor`."""
+    args = {k: v for k, v in arch.items() if k != "kind"}
+    return EntityActor(**args) if arch.get("kind") == "entities" else Actor(**args)
