@@ -40,7 +40,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 from wolfpack.batch import ObservationSizeError
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
-from wolfpack.opponents import SIDES, Opponent
+from wolfpack.opponents import SCRIPTED_LAWS, SIDES, Opponent
 from wolfpack.task import TASK_ORDER, check_task, outcome_changes, task_params
 
 #: The committed baselines: the analytic laws, and the learners' IQMs over training seeds.
@@ -76,18 +76,20 @@ def score_task(
     threads: int | None = None,
     progress: Callable[[int], None] | None = None,
     overrides: Mapping[str, Any] | None = None,
+    params: dict | None = None,
 ) -> dict:
-    """``policy`` driving ``side`` on ``task`` (with ``overrides`` on top): the evaluation report
+    """``policy`` driving ``side`` on ``task`` (with ``overrides`` on top; or on ``params``, a
+    world no task file holds, ``task`` then naming it): the evaluation report
     (:func:`wolfpack.evaluation.report`) with ``score`` and ``score_ci95`` added, or
-    ``{"skipped": reason}`` when its observation size does not fit the task."""
-    params = task_params(check_task(task), overrides)
+    ``{"skipped": reason}`` when its observation does not fit the task."""
+    params = task_params(check_task(task), overrides) if params is None else params
     other_law = params["policies"][OTHER[side]]
     try:
         results = rollout(params, episodes=episodes, seed=seed, threads=threads, opponent=policy, progress=progress)
     except ObservationSizeError as error:
         if progress is not None:
             progress(episodes)
-        return {"skipped": f"it takes {error.wanted} observations, the {side} of {task} have {error.here}"}
+        return {"skipped": error.reason or f"it takes {error.wanted} observations, the {side} of {task} have {error.here}"}
     names = {side: policy.name, OTHER[side]: other_law}
     row = report(results, names["wolves"], names["targets"])
     row.pop("capture_steps")
@@ -143,11 +145,20 @@ def scorecard(
     baselines: dict | None = None,
     progress: Callable[[int], None] | None = None,
     overrides: Mapping[str, Any] | None = None,
+    track: str = "tasks",
 ) -> dict:
     """Plays ``policy`` as ``side`` on ``tasks`` (default: every task), each with ``overrides``
     on top, and ranks it against ``baselines`` (default: the committed ones) where they were
     measured on the same episodes of the same tasks (never with overrides). Returns the
-    scorecard (what ``scorecard.json`` holds)."""
+    scorecard (what ``scorecard.json`` holds).
+
+    ``track="generalisation"``: the variations of :mod:`wolfpack.generalisation` instead of the
+    tasks (``tasks`` then names variations), ranked against the side's three laws played on
+    the same episodes of each variation (:func:`generalisation_scorecard`)."""
+    if track == "generalisation":
+        return generalisation_scorecard(policy, side, variations=tasks, episodes=episodes, seed=seed, threads=threads, progress=progress, overrides=overrides)
+    if track != "tasks":
+        raise ValueError(f"track must be 'tasks' or 'generalisation', got {track!r}")
     overrides = dict(overrides or {})
     driver = as_policy(policy, side)
     tasks = list(TASK_ORDER if tasks is None else tasks)
@@ -169,6 +180,59 @@ def scorecard(
             row["rank"] = rank(row["score"], list(theirs.values())) if theirs else None
             row["ranked_among"] = len(theirs) + 1 if theirs else None
         rows[task] = row
+    return _card(driver, side, rows, episodes, seed, overrides, "committed baselines" if comparable else None, {name: entry["kind"] for name, entry in baselines.get(side, {}).items()})
+
+
+def generalisation_scorecard(
+    policy: Any,
+    side: str,
+    *,
+    variations: Sequence[str] | None = None,
+    episodes: int = DEFAULT_EPISODES,
+    seed: int = HELD_OUT_SEED,
+    threads: int | None = None,
+    progress: Callable[[int], None] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> dict:
+    """``policy`` as ``side`` on the generalisation track's variations (default: all), each row
+    ranked against the side's scripted laws played on the same episodes of the same variation
+    (``progress`` counts the laws' episodes too). The same scorecard format, with
+    ``track: generalisation``."""
+    from wolfpack.generalisation import VARIATION_ORDER, check_variation, variation_params
+
+    overrides = dict(overrides or {})
+    driver = as_policy(policy, side)
+    names = list(VARIATION_ORDER if variations is None else variations)
+    if not names:
+        raise ValueError("no variations to play")
+    worlds = {name: variation_params(check_variation(name), overrides) for name in names}  # bad keys fail before any episode
+    laws = [law for law in SCRIPTED_LAWS[side] if law in TRACK_LAWS[side]]
+    rows: dict[str, dict] = {}
+    for name, params in worlds.items():
+        row = score_task(driver, side, name, episodes=episodes, seed=seed, threads=threads, progress=progress, params=params)
+        theirs = {}
+        for law in laws:
+            if law == driver.law:
+                continue
+            theirs[law] = score_task(as_policy(law, side), side, name, episodes=episodes, seed=seed, threads=threads, progress=progress, params=params)["score"]
+        if "score" in row:
+            row["baselines"] = theirs
+            row["rank"] = rank(row["score"], list(theirs.values())) if theirs else None
+            row["ranked_among"] = len(theirs) + 1 if theirs else None
+        rows[name] = row
+    card = _card(driver, side, rows, episodes, seed, overrides, "the laws on the same episodes", {law: "law" for law in laws})
+    card["track"] = "generalisation"
+    return card
+
+
+#: The laws each side is ranked against on the generalisation track: the pursuit laws, and the
+#: one target law that evades (random and still are not opponents worth a rank).
+TRACK_LAWS = {"wolves": ("seed000", "bvc", "formation"), "targets": ("escape",)}
+
+
+def _card(driver: Opponent, side: str, rows: dict[str, dict], episodes: int, seed: int, overrides: dict, ranked_against: str | None, baseline_kinds: dict) -> dict:
+    """The scorecard of ``rows`` (ValueError when ``driver`` played none of them)."""
+    tasks = list(rows)
     played = [t for t in tasks if "score" in rows[t]]
     if not played:
         reasons = {rows[t]["skipped"] for t in tasks}
@@ -183,8 +247,8 @@ def scorecard(
         "deterministic": True,
         "overrides": overrides,
         "modified_task": bool(outcome_changes(overrides)),
-        "ranked_against": "committed baselines" if comparable else None,
-        "baseline_kinds": {name: entry["kind"] for name, entry in baselines.get(side, {}).items()},
+        "ranked_against": ranked_against,
+        "baseline_kinds": baseline_kinds,
         "tasks": rows,
         "tasks_played": played,
         "mean_score": sum(rows[t]["score"] for t in played) / len(played),
@@ -212,14 +276,18 @@ def markdown(card: dict) -> str:
     """The scorecard as a Markdown table, one row per task."""
     side, (_, verb) = card["side"], SKILL[card["side"]]
     other = OTHER[side]
+    track = card.get("track") == "generalisation"
     lines = [
-        f"# Scorecard: {card['policy']} ({side}){' on modified tasks' if card.get('modified_task') else ''}",
+        f"# Scorecard: {card['policy']} ({side}){' on modified tasks' if card.get('modified_task') else ''}{', generalisation track' if track else ''}",
         "",
         *_overrides_lines(card.get("overrides") or {}),
+        *(['Variations of `hunt-v1` that no task file holds (docs/tasks.md, "The generalisation track").', ""] if track else []),
         f"{card['episodes']} deterministic episodes per task (seeds {card['first_seed']}..{card['first_seed'] + card['episodes'] - 1}), "
         f"against each task's scripted {other}; score = {verb}, with its 95 % Wilson interval. "
         + (
-            "Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the interquartile mean of their training seeds)."
+            "Rank among the laws of the same side, played on the same episodes of each variation."
+            if track
+            else "Rank among the committed baselines of the same episodes (the analytic laws, and the learned baselines by the interquartile mean of their training seeds)."
             if card["ranked_against"]
             else "No ranks: the committed baselines played other tasks."
             if card.get("overrides")
@@ -298,7 +366,7 @@ def figure(card: dict, path: str | Path) -> None:
     ax.errorbar(xs, [y - 0.1 for y in played], xerr=[lo, hi], fmt="o", color="tab:blue", ecolor="tab:blue", capsize=3, markersize=6, label=f"{card['policy']} (95 % interval)", zorder=3)
     for i, t in enumerate(tasks):
         if "skipped" in card["tasks"][t]:
-            ax.text(1, i, "skipped: other observation size", va="center", fontsize=8, color="0.4")
+            ax.text(1, i, f"skipped: {card['tasks'][t]['skipped']}", va="center", fontsize=8, color="0.4")
     ax.set_yticks(range(len(tasks)), tasks)
     ax.invert_yaxis()
     ax.set_xlim(-1.5, 101.5)

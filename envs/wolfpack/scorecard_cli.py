@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from wolfpack.task import TASK_ORDER
+from wolfpack.task import TASK_ORDER, check_task
 
 BENCHMARK_DESCRIPTION = """\
 Score one policy on every task of the benchmark suite (docs/tasks.md) and rank it against the
@@ -35,6 +35,7 @@ with), scorecard.md and scorecard.png."""
 BENCHMARK_EPILOG = """\
 examples:
   wolfpack benchmark --wolves bvc
+  wolfpack benchmark --wolves results/learned/generalist/seed0 --track generalisation --episodes 100
   wolfpack benchmark --wolves runs/wolves --out runs/wolves/scorecard
   wolfpack benchmark --targets results/models/escape_ppo --tasks hunt-v1 fast-target-v1 --episodes 100"""
 
@@ -53,7 +54,13 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--wolves", metavar="POLICY", help="the policy plays the wolves: a wolf law or a saved wolf model")
     who.add_argument("--targets", metavar="POLICY", help="the policy plays the targets: a target law or a saved target model")
-    p.add_argument("--tasks", metavar="NAME", nargs="+", choices=TASK_ORDER, default=None, help="only these tasks (default: every task)")
+    p.add_argument(
+        "--track",
+        choices=("tasks", "generalisation"),
+        default="tasks",
+        help="tasks: the task suite (default); generalisation: variations of hunt-v1 no task file holds (other team sizes, target counts, obstacle counts, arena, target speeds), beside the laws played on the same episodes",
+    )
+    p.add_argument("--tasks", metavar="NAME", nargs="+", default=None, help=f"only these tasks (default: every task: {', '.join(TASK_ORDER)}; with --track generalisation, its variations)")
     p.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=200, help="episodes per task (default: 200, the baselines' count: ranks need it)")
     p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=None, help="first episode seed (default: 500000, the held-out episodes: ranks need it)")
     p.add_argument(
@@ -80,15 +87,22 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     side = "wolves" if args.wolves is not None else "targets"
     policy = args.wolves if side == "wolves" else args.targets
     seed = HELD_OUT_SEED if args.seed is None else args.seed
-    tasks = list(args.tasks) if args.tasks else list(TASK_ORDER)
+    if args.track == "generalisation":
+        from wolfpack.generalisation import VARIATION_ORDER, check_variation
+
+        tasks = [check_variation(t) for t in args.tasks] if args.tasks else list(VARIATION_ORDER)
+    else:
+        tasks = [check_task(t) for t in args.tasks] if args.tasks else list(TASK_ORDER)
     out = Path(args.out) if args.out is not None else None
     if out is not None and out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ValueError(f"--out {out}: not a new or empty folder")
     # A bad key or value fails in scorecard(), before any episode and before anything is written.
     overrides = dict(config.parse_override(text) for text in args.overrides)
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
-    with tqdm(total=args.episodes * len(tasks), unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
-        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides)
+    # The generalisation track plays the side's laws too, on the same episodes.
+    players = 1 + (len(scorecard.TRACK_LAWS[side]) if args.track == "generalisation" else 0)
+    with tqdm(total=args.episodes * len(tasks) * players, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
+        card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides, track=args.track)
     card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
     if out is not None:
         paths = scorecard.write(card, out)
