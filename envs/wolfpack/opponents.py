@@ -85,6 +85,35 @@ def _is_native(where: str | Path) -> bool:
     return bool(native_model_folders(where))
 
 
+def read_config(path: Path) -> dict:
+    """A model's ``config.yaml`` as a mapping (an empty file: {}); ValueError naming the file
+    when it is not YAML or not a mapping of keys."""
+    import yaml
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (a model's config.yaml is YAML)") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(e, "problem", None) or "unreadable"
+        raise ValueError(f"{path}: not valid YAML{at} ({problem}); a model's config.yaml is a mapping of keys (side, algo, network, params)") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        what = "a list" if isinstance(data, list) else f"the single value {_short_value(data)}"
+        raise ValueError(f"{path}: holds {what}, not a mapping of keys (side, algo, network, params)")
+    return data
+
+
+def _short_value(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def find_model(where: str | Path) -> tuple[Path, Path | None]:
     """(the model's zip, its run's ``config.yaml`` or None) for a zip path (``.zip`` may be left
     out) or a run folder (``DIR/model.zip``); a checkpoint's run folder is its zip's parent or
@@ -208,9 +237,7 @@ class Opponent:
             except FileNotFoundError as e:
                 raise ValueError(f"opponent {str(policy)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({e})") from None
             if config_path is not None:
-                import yaml
-
-                self.config = yaml.safe_load(config_path.read_text()) or {}
+                self.config = read_config(config_path)
             self.model = load_sb3(zip_path, self.config.get("algo"))
             trained_side = self.config.get("side")
             if trained_side in SIDES:

@@ -42,7 +42,7 @@ import wolfpack
 from wolfpack.batch import OUTCOMES, BatchEnv
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
-from wolfpack.models import POLICY_FILE
+from wolfpack.models import POLICY_FILE, load_tensors
 from wolfpack.opponents import CONFIG_FILE, SIDES, Opponent, as_opponent, opponent_side
 
 TRAINER_FILE = "trainer.pt"
@@ -211,7 +211,9 @@ class Trainer:
 
     def _load_resume_state(self) -> dict | None:
         candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
-        states = [torch.load(p, map_location=self.device, weights_only=False) for p in candidates if p.is_file()]
+        # Tensors and plain containers only (the generator's state is a tensor): a file is
+        # never run as code, and a truncated or foreign one is a ValueError naming it.
+        states = [load_tensors(p, map_location=self.device) for p in candidates if p.is_file()]
         if not states:
             raise ValueError(f"--resume: {self.out} holds no {TRAINER_FILE} to resume from (the run never reached its first checkpoint)")
         return max(states, key=lambda s: s["agent_steps"])
