@@ -235,25 +235,84 @@ def resolve_device(device: str):
     return device
 
 
-def prepare_out(out: Path, resume: bool, identity: dict) -> None:
-    """A new or empty ``out``; with ``resume``, a run folder of the same configuration. Nothing
-    is written before this passes."""
-    from wolfpack.opponents import CONFIG_FILE
+def prepare_out(out: Path, resume: bool, identity: dict) -> bool:
+    """A new or empty ``out``, or one holding a run that stopped before its first update
+    (:func:`without_progress`: it starts afresh there); with ``resume``, a run folder of the
+    same configuration. Nothing is written before this passes. Returns whether the run goes on
+    from a saved state (False: it starts afresh)."""
+    from wolfpack.opponents import CONFIG_FILE, read_config
 
     config_path = out / CONFIG_FILE
     if resume:
         if not config_path.is_file():
             raise ValueError(f"--resume: {out} holds no run of 'wolfpack train' (no {CONFIG_FILE})")
-        import yaml
-
-        theirs = yaml.safe_load(config_path.read_text()) or {}
+        theirs = read_config(config_path)
         mine = json.loads(json.dumps(identity))
         for key, value in mine.items():
             if theirs.get(key) != value:
                 raise ValueError(f"--resume: {out} is a run with another {key} ({_short(theirs.get(key))} there, {_short(value)} here); resume it with the same arguments, or use another --out")
-        return
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        # Stopped before its first update (Ctrl-C during start-up): nothing to go on from, and
+        # nothing lost by starting afresh.
+        return not without_progress(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not without_progress(out):
         raise ValueError(f"--out {out}: not a new or empty folder (continue a run there with --resume)")
+    return False
+
+
+#: What a run writes before its first update: its configuration, the header of progress.csv and
+#: TensorBoard's first (empty) event file.
+START_UP_FILES = ("config.yaml", "progress.csv", "events.out.tfevents.*")
+
+
+def without_progress(out: Path) -> bool:
+    """Whether ``out`` holds a run of ``wolfpack train`` stopped before its first update
+    (Ctrl-C during start-up, or a failure then): its ``config.yaml``, a ``progress.csv`` of at
+    most its header, TensorBoard's event files, and nothing else. A rerun may start afresh
+    there, with or without ``--resume``: no model, row or evaluation is lost."""
+    from wolfpack.opponents import CONFIG_FILE, read_config
+
+    if not (out / CONFIG_FILE).is_file():
+        return False
+    for path in out.iterdir():
+        if not path.is_file() or not any(path.match(pattern) for pattern in START_UP_FILES):
+            return False
+        if path.name == "progress.csv" and len(path.read_bytes().splitlines()) > 1:
+            return False
+    try:
+        return read_config(out / CONFIG_FILE).get("trainer") == "wolfpack train"
+    except ValueError:
+        return False  # not a config this command wrote: someone else's file
+
+
+def _clear_start_up(out: Path) -> None:
+    """Removes what a run stopped before its first update left (:func:`without_progress`), so
+    that progress.csv starts with its header again."""
+    if out.is_dir():
+        for pattern in START_UP_FILES[1:]:
+            for path in out.glob(pattern):
+                path.unlink()
+
+
+def check_rollout_memory(params: dict, learners: str, algo: str, recipes: dict) -> None:
+    """The rollout buffers of every learning side against the memory available
+    (:func:`wolfpack.learn.recipes.check_memory`), sized on a one-world batch of ``params``."""
+    from wolfpack.batch import BatchEnv
+    from wolfpack.learn.recipes import check_memory, rollout_bytes
+
+    probe = BatchEnv(params, num_envs=1, learners="all" if learners == "both" else learners)
+    batch = recipes["wolves" if learners == "both" else learners]  # the batch's keys are the first side's
+    sides = ("wolves", "targets") if learners == "both" else (learners,)
+    needed = sum(
+        rollout_bytes(
+            batch,
+            agents=probe.n_wolves if side == "wolves" else probe.n_targets,
+            obs_dim=probe.wolf_obs_dim if side == "wolves" else probe.target_obs_dim,
+            state_dim=probe.state_dim,
+            centralised=algo == "mappo",
+        )
+        for side in sides
+    )
+    check_memory(batch, needed)
 
 
 def _short(v: Any) -> str:
@@ -342,8 +401,9 @@ def run_training(
         imitate_min=imitate_min,
         command=command,
     )
+    check_rollout_memory(resolved, learners, algo, recipes)
     out = Path(out)
-    prepare_out(out, resume, spec.identity())
+    resume = prepare_out(out, resume, spec.identity())
     torch.set_num_threads(spec.torch_threads)
     # Building the trainer builds the batch and loads the opponent: a model of the wrong side or
     # observation size fails here, before anything is written.
@@ -355,6 +415,7 @@ def run_training(
         from wolfpack.opponents import CONFIG_FILE
 
         out.mkdir(parents=True, exist_ok=True)
+        _clear_start_up(out)
         config = {
             **spec.identity(),
             "task": task,
