@@ -64,12 +64,12 @@ CHUNK = 256
 def _driver(policy: Any, side: str) -> Opponent:
     if side not in SIDES:
         raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
-    return policy if isinstance(policy, Opponent) else Opponent(policy, side=side, deterministic=True)
+    return policy if isinstance(policy, Opponent) else Opponent(policy, side=side, deterministic=True, role="policy")
 
 
 def policy_side(policy: Any) -> str:
     """The side a law or a saved model plays (ValueError when it cannot say: a callable)."""
-    driver = Opponent(policy) if not isinstance(policy, Opponent) else policy
+    driver = Opponent(policy, role="policy") if not isinstance(policy, Opponent) else policy
     if driver.side is None:
         raise ValueError(f"{driver.name!r}: say which side it plays (side='wolves' or 'targets')")
     return driver.side

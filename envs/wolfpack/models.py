@@ -148,7 +148,13 @@ class SavedPolicy:
 
     def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
         """Actions [..., 2] for observations [..., D] (float32, clipped to [-1, 1]): the
-        policy's mode, or with ``deterministic=False`` a draw with ``rng``."""
+        policy's mode, or with ``deterministic=False`` a draw with ``rng`` (a numpy
+        ``Generator``; None: a fresh unseeded one). TypeError for a ``deterministic`` that is not
+        True or False (``"no"`` would read as True) or an ``rng`` that is no generator."""
+        if not isinstance(deterministic, (bool, np.bool_)):
+            raise TypeError(f"deterministic must be True or False, got {deterministic!r}")
+        if rng is not None and not isinstance(rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy random generator (np.random.default_rng(seed)) or None, got {rng!r}")
         x = self.check(obs)
         return self._act(x, deterministic, rng).reshape(*np.shape(obs)[:-1], 2)
 

@@ -145,7 +145,7 @@ def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
             raise ValueError(f"unknown algorithm {algo!r} (one of {', '.join(classes)})")
         return classes[algo].load(zip_path, device=device)
     except Exception as e:  # a truncated or foreign zip: say which file
-        raise ValueError(f"opponent {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
+        raise ValueError(f"model {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
 
 
 def run_label(zip_path: Path, config: dict) -> str:
@@ -175,8 +175,10 @@ class Opponent:
         seed: seeds the sampling generator (``deterministic=False``).
         action_mode: ``"unicycle"`` or ``"velocity"``, the mode its actions are in; None: a
             run folder's own, else the env's.
-        name: the label in tables and errors (default: the law, ``<algo>:<run folder>``, or the
-            callable's name).
+        name: the label in tables and errors (default: the law, ``<algo>:<run folder>``, a
+            loaded model's own name, or the callable's name).
+        role: what errors call it while it is built (``"policy"`` where it is the policy being
+            scored or recorded).
 
     Attributes: ``kind`` (``"scripted"``, ``"model"`` or ``"callable"``), ``law`` (scripted),
     ``obs_dim`` (the observation size a model takes, None for a callable), ``config`` (a run
@@ -192,6 +194,7 @@ class Opponent:
         seed: int = 0,
         action_mode: str | None = None,
         name: str | None = None,
+        role: str = "opponent",
     ) -> None:
         if side is not None and side not in SIDES:
             raise ValueError(f"opponent side must be 'wolves' or 'targets', got {side!r}")
@@ -217,7 +220,7 @@ class Opponent:
             self.kind, self.law = "scripted", policy
             law_side = _law_side(policy)
             if side is not None and side != law_side:
-                raise ValueError(f"opponent {policy!r} is a law of the {law_side}, not of the {side}")
+                raise ValueError(f"{role} {policy!r} is a law of the {law_side}, not of the {side}")
             side, label = law_side, policy
         elif isinstance(policy, (str, Path)) and _is_native(policy):
             from wolfpack.models import load_policy
@@ -235,14 +238,14 @@ class Opponent:
             try:
                 zip_path, config_path = find_model(policy)
             except FileNotFoundError as e:
-                raise ValueError(f"opponent {str(policy)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({e})") from None
+                raise ValueError(f"{role} {str(policy)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({e})") from None
             if config_path is not None:
                 self.config = read_config(config_path)
             self.model = load_sb3(zip_path, self.config.get("algo"))
             trained_side = self.config.get("side")
             if trained_side in SIDES:
                 if side is not None and side != trained_side:
-                    raise ValueError(f"opponent {zip_path}: trained for the {trained_side}, asked to drive the {side}")
+                    raise ValueError(f"{role} {zip_path}: trained for the {trained_side}, asked to drive the {side}")
                 side = trained_side
             trained = self.config.get("params") or {}
             if mode is None and "env" in trained:
@@ -250,26 +253,27 @@ class Opponent:
             label = run_label(zip_path, self.config) if self.config else zip_path.stem
         elif callable(getattr(policy, "predict", None)) and hasattr(policy, "observation_space"):
             self.kind, self.model = "model", policy
-            label = type(policy).__name__
+            # A wolfpack.load_policy model knows its name; an SB3 model only its class.
+            label = policy.name if isinstance(getattr(policy, "name", None), str) else type(policy).__name__
         elif callable(policy):
             self.kind, self._call = "callable", policy
             label = getattr(policy, "__name__", type(policy).__name__)
         else:
-            raise TypeError(f"opponent must be a law's name, a model path, an SB3 model or policy, or a callable obs -> actions; got {type(policy).__name__}")
+            raise TypeError(f"{role} must be a law's name, a model path, an SB3 model or policy, or a callable obs -> actions; got {type(policy).__name__}")
         if self.model is not None:
-            self._check_spaces()
+            self._check_spaces(role)
         self.side = side
         self.action_mode = mode
         if side is not None and trained:
             self.observation = side_observation(trained, side)
         self.name = name or label
 
-    def _check_spaces(self) -> None:
+    def _check_spaces(self, role: str) -> None:
         obs_space, act_space = self.model.observation_space, self.model.action_space
         if getattr(obs_space, "shape", None) is None or len(obs_space.shape) != 1:
-            raise ValueError(f"opponent: a model with observations of shape {getattr(obs_space, 'shape', None)}; wolfpack's are vectors")
+            raise ValueError(f"{role}: a model with observations of shape {getattr(obs_space, 'shape', None)}; wolfpack's are vectors")
         if getattr(act_space, "shape", None) != (2,):
-            raise ValueError(f"opponent: the model's actions have shape {getattr(act_space, 'shape', None)}, a wolfpack agent's action has 2 entries")
+            raise ValueError(f"{role}: the model's actions have shape {getattr(act_space, 'shape', None)}, a wolfpack agent's action has 2 entries")
         self.obs_dim = int(obs_space.shape[0])
 
     @property

@@ -10,10 +10,16 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
+from wolfpack._checks import is_int
+from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
 from wolfpack.task import TASK_ORDER
 
 DEVICES = ("auto", "cpu", "cuda")
+#: ``--seed`` is below this: the training worlds take ``TRAIN_SEED_BASE·(S+1) + e`` (and a
+#: resumed run ``num_envs`` more per resume), which must stay below 2**64 (≈ 1.8e19); 10**13
+#: leaves room for a billion worlds' worth of resumes.
+SEED_END = 10**13
 
 TRAIN_DESCRIPTION = """\
 Train wolves, targets or both sides at once with PPO on the native batch.
@@ -84,7 +90,7 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="run folder (new or empty, or the run to --resume)")
     p.add_argument("--time-limit", metavar="MIN", type=_positive_minutes, default=None, help="stop after this many minutes of this invocation")
     p.add_argument("--timesteps", metavar="N", type=_int_at_least(1), default=None, help="stop after this many agent-steps in all")
-    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds (default 0)")
+    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds 1000000*(S+1)+e; 0 <= S < 10^13 (default 0)")
     p.add_argument(
         "--opponent",
         metavar="LAW_OR_MODEL",
@@ -125,7 +131,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from wolfpack import config
 
     overrides = dict(config.parse_override(text) for text in args.overrides)
-    hp = dict(config.parse_override(text) for text in args.hp)
+    hp = dict(config.parse_override(text, "--hp") for text in args.hp)
     summary = run_training(
         learners=args.side,
         algo=args.algo,
@@ -350,6 +356,8 @@ def run_training(
         raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
     if algo not in ALGOS:
         raise ValueError(f"--algo must be one of {', '.join(ALGOS)}, got {algo!r}")
+    if not is_int(seed) or not 0 <= seed < SEED_END:
+        raise ValueError(f"--seed must be an integer in [0, 10^13), got {seed!r}: the training worlds are seeded {TRAIN_SEED_BASE}*(S+1)+e, and every world's seed must stay below 2^64")
     if time_limit_min is None and timesteps is None:
         raise ValueError("give a budget: --time-limit MINUTES and/or --timesteps N")
     if time_limit_min is not None and not (time_limit_min > 0):
