@@ -86,7 +86,7 @@ def test_a_run_stopped_during_start_up_is_reused_by_a_rerun_or_resume(tmp_path, 
     out = tmp_path / "run"
     with monkeypatch.context() as patched:
         _stop_during_start_up(patched)
-        with pytest.raises(KeyboardInterrupt):
+        with pytest.raises(KeyboardInterrupt, match="holds no progress yet: the same command starts afresh there"):
             tiny(out)
     assert sorted(p.name for p in out.iterdir()) == ["config.yaml", "progress.csv"]
     summary = tiny(out, resume=resume)

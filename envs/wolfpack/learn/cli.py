@@ -440,4 +440,13 @@ def run_training(
             "versions": versions(),
         }
         (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
-    return trainer.run()
+    try:
+        return trainer.run()
+    except KeyboardInterrupt:
+        # The exit-status table promises one line saying what --out holds.
+        from wolfpack.cli import Interrupted
+        from wolfpack.learn.trainer import TRAINER_FILE
+
+        if (out / TRAINER_FILE).is_file():
+            raise Interrupted(f"; {out} holds the models and the resume state at {trainer.agent_steps:,} agent-steps: continue with --resume") from None
+        raise Interrupted(f"; {out} holds no progress yet: the same command starts afresh there") from None
