@@ -68,3 +68,13 @@ def test_act_refuses_a_generator_or_flag_of_another_kind_naming_it():
     assert policy.act(obs, deterministic=np.bool_(False), rng=np.random.default_rng(0)).shape == (5, 2)
     # A loaded model driving a side is named by its own name, not its class.
     assert wolfpack.Opponent(policy).name == policy.name != "NativePolicy"
+
+
+def test_a_non_finite_observation_is_named_not_answered_with_nan():
+    pytest.importorskip("torch")
+    policy = wolfpack.load_policy(MODEL)
+    obs = np.zeros((5, policy.obs_dim), np.float32)
+    obs[3, 7] = np.nan
+    for deterministic in (True, False):
+        with pytest.raises(ValueError, match="observation row 3 holds NaN or inf"):
+            policy.act(obs, deterministic=deterministic)

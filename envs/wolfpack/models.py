@@ -140,11 +140,17 @@ class SavedPolicy:
         return self.act(obs, deterministic), None
 
     def check(self, obs: Any) -> np.ndarray:
-        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D is not the model's."""
+        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D is not the
+        model's, or naming the row that holds NaN or inf (a native model would answer it with
+        NaN actions, an SB3 one with an error from deep inside torch)."""
         x = np.ascontiguousarray(obs, dtype=np.float32)
         if x.ndim < 1 or x.shape[-1] != self.obs_dim:
             raise ValueError(f"model {self.name!r} takes observations [n, {self.obs_dim}], got shape {tuple(x.shape)}")
-        return x.reshape(-1, self.obs_dim)
+        x = x.reshape(-1, self.obs_dim)
+        finite = np.isfinite(x).all(axis=1)
+        if not finite.all():
+            raise ValueError(f"model {self.name!r}: observation row {int(np.argmin(finite))} holds NaN or inf")
+        return x
 
     def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
         """Actions [..., 2] for observations [..., D] (float32, clipped to [-1, 1]): the
