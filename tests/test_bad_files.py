@@ -132,6 +132,17 @@ def test_a_bad_policy_pt_is_named_never_run_and_torchs_unsafe_advice_is_not_rela
     assert "weights_only" not in line and not marker.exists()
 
 
+def test_a_policy_pt_with_nan_weights_is_named(tmp_path):
+    folder = model_copy(tmp_path)
+    state = torch.load(folder / "policy.pt", weights_only=True)
+    name = next(k for k, v in state.items() if v.is_floating_point() and v.ndim == 2)
+    state[name][0, 0] = float("nan")
+    torch.save(state, folder / "policy.pt")
+    with pytest.raises(ValueError, match="holds NaN or inf weights") as caught:
+        wolfpack.load_policy(folder)
+    assert str(folder / "policy.pt") in str(caught.value)
+
+
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run") / "run"
@@ -148,14 +159,16 @@ def test_the_resume_state_is_tensors_only(tiny_run):
     assert isinstance(state["generator"], torch.Tensor) and state["agent_steps"] > 0
 
 
-@pytest.mark.parametrize("kind", ["truncated", "code"])
+@pytest.mark.parametrize("kind", ["truncated", "code", "foreign"])
 def test_resume_from_a_bad_trainer_pt_is_exit_2_naming_the_file(tiny_run, tmp_path, kind):
     out = tmp_path / "run"
     shutil.copytree(tiny_run, out)
     for stale in out.glob("checkpoints/*/trainer.pt"):  # only the latest state is left to read
         stale.unlink()
     marker = tmp_path / "ran"
-    (out / "trainer.pt").write_bytes(_bad_pt(kind, (tiny_run / "trainer.pt").read_bytes(), marker))
+    # "foreign": tensors, but a model's weights rather than a resume state.
+    bad = (MODEL / "policy.pt").read_bytes() if kind == "foreign" else _bad_pt(kind, (tiny_run / "trainer.pt").read_bytes(), marker)
+    (out / "trainer.pt").write_bytes(bad)
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
     config = yaml.safe_load((out / "config.yaml").read_text())
     run = wolfpack_cli(

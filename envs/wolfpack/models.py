@@ -191,6 +191,8 @@ class NativePolicy(SavedPolicy):
             self.actor.load_state_dict(state)
         except Exception as e:  # another network's weights: say which file
             raise ValueError(f"model {folder}: {POLICY_FILE} does not fit the network in {CONFIG_FILE} ({_one_line(e)})") from None
+        if not all(bool(p.isfinite().all()) for p in self.actor.state_dict().values() if p.is_floating_point()):
+            raise ValueError(f"{folder / POLICY_FILE}: holds NaN or inf weights (damaged, or saved from a run that diverged)")
         self.actor.eval()
 
     def _act(self, x: np.ndarray, deterministic: bool, rng: np.random.Generator | None) -> np.ndarray:

@@ -169,7 +169,10 @@ class Trainer:
                 side_by_side=side_by_side,
             )
         if state is not None:
-            self._restore(state)
+            try:
+                self._restore(state)
+            except (KeyError, RuntimeError, TypeError, ValueError) as e:  # another network's state
+                raise ValueError(f"--resume: {self._resume_path}: does not fit this run's networks ({' '.join(str(e).split())[:200]})") from None
         self.agents_per_step = self.num_envs * sum(learner.agents for learner in self.learners.values())
         self.evaluations: list[dict] = json.loads((self.out / "evaluations.json").read_text()) if resume and (self.out / "evaluations.json").is_file() else []
 
@@ -213,10 +216,11 @@ class Trainer:
         candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
         # Tensors and plain containers only (the generator's state is a tensor): a file is
         # never run as code, and a truncated or foreign one is a ValueError naming it.
-        states = [load_tensors(p, map_location=self.device) for p in candidates if p.is_file()]
+        states = [(p, _check_resume_state(p, load_tensors(p, map_location=self.device), self.spec.sides)) for p in candidates if p.is_file()]
         if not states:
             raise ValueError(f"--resume: {self.out} holds no {TRAINER_FILE} to resume from (the run never reached its first checkpoint)")
-        return max(states, key=lambda s: s["agent_steps"])
+        self._resume_path, state = max(states, key=lambda ps: ps[1]["agent_steps"])
+        return state
 
     def _restore(self, state: dict) -> None:
         for side, learner in self.learners.items():
@@ -474,6 +478,22 @@ class Trainer:
             "resumes": self.resumes,
         }
         _write(folder / TRAINER_FILE, lambda p: torch.save(state, p))
+
+
+def _check_resume_state(path: Path, state: Any, sides: tuple[str, ...]) -> dict:
+    """``state`` if it is a resume state of these sides (what :meth:`Trainer._save` writes);
+    ValueError naming ``path`` and what is missing otherwise."""
+    counters = ("updates", "agent_steps", "resumes")
+    if not isinstance(state, dict):
+        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train'")
+    missing = [k for k in ("learners", "generator", *counters, "train_s") if k not in state]
+    if not missing:
+        missing = [f"learners.{side}" for side in sides if not isinstance(state["learners"], dict) or not isinstance(state["learners"].get(side), dict)]
+    if missing:
+        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train' (it lacks {', '.join(missing)})")
+    if not isinstance(state["generator"], torch.Tensor) or not all(isinstance(state[k], int) and not isinstance(state[k], bool) and state[k] >= 0 for k in counters):
+        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train' (its generator or counters are of another kind)")
+    return state
 
 
 def _write(path: Path, writer) -> None:
