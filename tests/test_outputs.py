@@ -127,7 +127,7 @@ def test_the_helper_checks_before_writing_and_stages_inside_the_folder(tmp_path)
     (gone.start() / "half.txt").write_text("")
     gone.discard()
     assert not (tmp_path / "c").exists()
-    with pytest.raises(ValueError, match="exists and is not a folder"):
+    with pytest.raises(ValueError, match="exists and is not a directory"):
         Outputs(out / "other.txt", "wolfpack x", force=True)
     (out / MANIFEST_NAME).write_text("[garbled")
     with pytest.raises(ValueError, match=r"did not write \(other.txt\)"):

@@ -95,7 +95,7 @@ class Outputs:
         self.out, self.command, self.in_place = Path(out), command, in_place
         out = self.out
         if out.exists() and not out.is_dir():
-            raise ValueError(f"{option} {out}: exists and is not a folder")
+            raise ValueError(f"{option} {out}: exists and is not a directory")
         present = _entries(out) if out.is_dir() else []
         self.replacing = bool(present)
         #: The names in DIR that the earlier run wrote (and a killed run's staging folders).
