@@ -425,16 +425,18 @@ def test_version_and_python_dash_m(cli):
     assert json.loads(as_module.stdout)["episodes"] == 1
 
 
-def test_force_replaces_an_earlier_run_and_keeps_other_files(cli, tmp_path):
+def test_force_replaces_an_earlier_run_and_refuses_other_files(cli, tmp_path):
     """A 2-episode run after a 3-episode one in the same folder, with --force: no episode_002 of
-    the old run beside the new summary; a user's own file stays."""
+    the old run beside the new summary; a folder with a user's own file in it is refused."""
     out = tmp_path / "out"
     assert cli("hunt", "--episodes", "3", "--plots", "0", "--out", out, *SHORT).returncode == 0
     (out / "notes.txt").write_text("mine")
+    assert_clean_failure(cli("hunt", "--episodes", "2", "--plots", "0", "--out", out, "--force", *SHORT), "notes.txt")
+    assert (out / "notes.txt").read_text() == "mine" and (out / "episode_002").is_dir()
+    (out / "notes.txt").unlink()
     assert cli("hunt", "--episodes", "2", "--plots", "0", "--seed", "5", "--out", out, "--force", *SHORT).returncode == 0
     assert sorted(p.name for p in out.glob("episode_*")) == ["episode_000", "episode_001"]
     assert json.loads((out / "summary.json").read_text())["seed"] == 5
-    assert (out / "notes.txt").read_text() == "mine"
     assert not list(out.rglob(".*.tmp"))
 
 

@@ -127,7 +127,7 @@ def test_the_command_writes_and_reports(tmp_path):
 def test_force_replaces_a_dataset_only_once_the_new_one_is_complete(tmp_path, monkeypatch):
     out = tmp_path / "d"
     dataset.make("hunt-v1", "bvc", out, episodes=2, seed=0)
-    with pytest.raises(ValueError, match=r"not a new or empty folder \(--force replaces it\)"):
+    with pytest.raises(ValueError, match=r"not a new or empty folder; choose another, or add --force"):
         dataset.make("hunt-v1", "bvc", out, episodes=3, seed=5)
 
     def interrupted(*args, **kwargs):

@@ -19,7 +19,7 @@ import pytest
 import wolfpack
 from conftest import SHORT, layout_dict, synthetic_result
 from test_cli import assert_clean_failure
-from wolfpack import _core, cli, logs
+from wolfpack import _core, cli, logs, outputs
 from wolfpack._checks import MAX_THREADS
 from wolfpack.config import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, check_tree, load_layout, load_params, parse_override
 
@@ -343,7 +343,7 @@ def test_empty_out_and_too_many_threads_are_usage_errors(tmp_path, args):
 def test_a_finished_run_has_no_marker_and_a_failed_fresh_run_leaves_nothing(cli, tmp_path):
     out = tmp_path / "run"
     assert cli("hunt", "--episodes", "2", "--plots", "0", "--out", out, *SHORT).returncode == 0
-    assert sorted(p.name for p in out.iterdir()) == ["episode_000", "episode_001", "summary.json", "summary.png"]
+    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "episode_000", "episode_001", "summary.json", "summary.png"]
     # A spawn that fails while running, into a new nested folder: no folder is left behind.
     assert_clean_failure(cli("hunt", "--episodes", "1", "--out", tmp_path / "a" / "b", "--set", "obstacles.static_polygons=500"), "spawn")
     # ... and into an existing empty folder: it stays, empty.
@@ -357,10 +357,10 @@ def test_force_replaces_an_interrupted_run_and_its_marker(cli, tmp_path):
     out = tmp_path / "run"
     (out / "episode_007").mkdir(parents=True)
     (out / logs.INCOMPLETE_NAME).write_text("an earlier interrupted run\n")
-    (out / "notes.txt").write_text("mine")
+    outputs.write_manifest(out, "wolfpack hunt", ["episode_007", logs.INCOMPLETE_NAME])  # what its Ctrl-C leaves
     assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, *SHORT), "--force")
     assert cli("hunt", "--episodes", "1", "--plots", "0", "--out", out, "--force", *SHORT).returncode == 0
-    assert sorted(p.name for p in out.iterdir()) == ["episode_000", "notes.txt", "summary.json", "summary.png"]
+    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "episode_000", "summary.json", "summary.png"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no temporary sibling left
 
 
@@ -412,7 +412,7 @@ def _run_main(argv, capsys) -> tuple[int, str]:
 
 
 def _assert_every_file_complete(folder: Path) -> None:
-    assert not [p for p in folder.rglob(".*")], "temporary files left"
+    assert not [p for p in folder.rglob(".*") if p.name != outputs.MANIFEST_NAME], "temporary files left"
     for episode in folder.glob("episode_*"):
         with np.load(episode / "trajectory.npz", allow_pickle=False) as data:
             assert "wolves" in data.files and np.isfinite(data["wolves"]).all()
@@ -424,7 +424,7 @@ def test_ctrl_c_inside_a_trajectory_write_leaves_only_complete_files_and_the_mar
     status, err = _run_main(["hunt", "--episodes", "5", "--plots", "0", "--out", out, "--set", "world.max_steps=30"], capsys)
     assert status == 130
     assert err.count("\n") == 1 and err.startswith("wolfpack: interrupted; ") and "INCOMPLETE" in err and "2 of 5 episodes" in err, err
-    assert sorted(p.name for p in out.iterdir()) == ["INCOMPLETE", "episode_000", "episode_001"]
+    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "INCOMPLETE", "episode_000", "episode_001"]
     _assert_every_file_complete(out)
     marker = (out / "INCOMPLETE").read_text()
     assert "interrupted" in marker and "wolfpack hunt --episodes 5" in marker
@@ -490,7 +490,7 @@ def test_a_ctrl_c_that_an_extension_turns_into_an_import_error_still_stops_the_r
     status, err = _run_main(["hunt", "--episodes", "4", "--plots", "4", "--out", out, "--set", "world.max_steps=30"], capsys)
     assert status == 130 and err.count("\n") == 1 and err.startswith("wolfpack: interrupted; ") and "INCOMPLETE" in err, err
     assert "2 of 4 episodes" in err, err  # episode 1's trajectory was written before its plots
-    assert sorted(p.name for p in out.iterdir()) == ["INCOMPLETE", "episode_000", "episode_001"]
+    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "INCOMPLETE", "episode_000", "episode_001"]
     _assert_every_file_complete(out)
 
 
@@ -660,7 +660,7 @@ def test_ctrl_c_during_a_forced_rerun_keeps_the_earlier_run(cli, tmp_path):
     out = tmp_path / "run"
     assert cli("hunt", "--episodes", "2", "--plots", "0", "--out", out, *SHORT).returncode == 0
     before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
-    proc, seconds = _interrupt(["hunt", "--episodes", "200000", "--out", out, "--force"], lambda pid: any(tmp_path.glob(".run.*/episode_000")))
+    proc, seconds = _interrupt(["hunt", "--episodes", "200000", "--out", out, "--force"], lambda pid: any(out.glob(f"{outputs.STAGING_PREFIX}*/episode_000")))
     _assert_interrupted(proc, seconds, "is intact")
     assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]

@@ -83,6 +83,12 @@ def test_state_layout_and_bad_use():
     env.step(env.unwrapped.expert_actions())
     assert env.state()[-1] == pytest.approx(1 / 300)
     batch = wolfpack.BatchEnv(num_envs=3, seed=5)
+    with pytest.raises(RuntimeError, match=r"call reset\(\) before state\(\)"):
+        batch.state()  # the worlds exist, but state() waits for a reset as every env's does
+    venv_before = wolfpack.make_vec_env(num_envs=3, seed=5)
+    with pytest.raises(RuntimeError, match=r"call reset\(\) before state\(\)"):
+        venv_before.state()
+    batch.reset(5)
     assert batch.state().shape == (3, batch.state_dim)
     fresh = wolfpack.parallel_env()
     fresh.reset(seed=5)

@@ -172,3 +172,31 @@ def test_the_cheap_step_and_reset_builds_what_torchrls_generic_one_builds():
         for key in a.keys(True, True):
             assert torch.equal(a[key], b[key]), (t, key)
     assert ended >= 8 * 5
+
+
+def test_a_bad_seed_is_refused_and_the_seed_before_it_kept():
+    env = WolfpackEnv(num_envs=2, seed=0)
+    env.set_seed(7)
+    for bad, error in ((2**64, ValueError), (-5, ValueError), (2**64 - 1, ValueError), (1.5, TypeError), (True, TypeError)):
+        with pytest.raises(error, match="seed"):
+            env.set_seed(bad)  # world i takes seed + i: 2**64 - 1 + 1 is no seed either
+    first = env.reset()
+    again = WolfpackEnv(num_envs=2, seed=0)
+    again.set_seed(7)
+    torch.testing.assert_close(first["wolves", "observation"], again.reset()["wolves", "observation"])
+
+
+def test_a_step_without_the_action_is_a_key_error_naming_it():
+    env = WolfpackEnv(num_envs=2, learners="all")
+    td = env.reset()
+    td["wolves", "action"] = torch.zeros(2, 5, 2)
+    with pytest.raises(KeyError, match=r"no \('targets', 'action'\) entry"):
+        env.step(td)
+
+
+def test_a_bad_device_is_refused_before_the_batch_is_built():
+    with pytest.raises(ValueError, match="device: 'tpu' is not a torch device"):
+        WolfpackEnv(device="tpu")
+    if not torch.cuda.is_available():
+        with pytest.raises(ValueError, match="no CUDA device here"):
+            WolfpackEnv(device="cuda")

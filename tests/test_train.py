@@ -406,7 +406,8 @@ def test_ctrl_c_stops_promptly_and_keeps_the_models(tmp_path):
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
-    assert stderr.strip().splitlines()[-1] == "wolfpack: interrupted" and stdout == ""
+    last = stderr.strip().splitlines()[-1]
+    assert last.startswith(f"wolfpack: interrupted; {out} holds the models and the resume state at ") and last.endswith("continue with --resume") and stdout == ""
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped_by"] == "interrupt" and summary["updates"] >= 2
     assert load_policy(out).obs_dim == before_dim()

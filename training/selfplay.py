@@ -81,6 +81,7 @@ from wolfpack.batch import resolve_params  # noqa: E402
 from wolfpack.config import parse_override  # noqa: E402
 from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides  # noqa: E402
 from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
+from wolfpack.models import load_tensors  # noqa: E402
 from wolfpack.opponents import CONFIG_FILE, side_action_mode  # noqa: E402
 
 LEAGUE_FILE = "league.json"
@@ -232,8 +233,6 @@ def start_state(out: Path, league: dict, side: str) -> tuple[dict | None, str | 
     """The learner state a generation of ``side`` starts from and its label: the side's latest
     learned member (its generation's ``trainer.pt``), else ``--init-<side>`` (a run of
     ``wolfpack train``), else (None, None): a fresh learner."""
-    import torch
-
     learned = [m for m in members_of(league, side) if m["kind"] == "model" and not m.get("fixed")]
     if learned:
         path, label = out / learned[-1]["state"], learned[-1]["name"]
@@ -243,7 +242,10 @@ def start_state(out: Path, league: dict, side: str) -> tuple[dict | None, str | 
         return None, None
     if not path.is_file():
         raise UsageError(f"{path}: missing (the learner state a generation of the {side} starts from)")
-    state = torch.load(path, map_location="cpu", weights_only=False)
+    try:
+        state = load_tensors(path)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
     if side not in state.get("learners", {}):
         raise UsageError(f"{path}: holds no learner of the {side}")
     return state["learners"][side], Path(label).name

@@ -352,6 +352,10 @@ class BatchEnv:
         self.opponent: Opponent | None = as_opponent(opponent) if opponent is not None else None
         core_learners, core_params = drivers(self._base_params, self.learners, self.opponent)
         self._core = _core.BatchEnv(core_params, num_envs, core_learners, seed, autoreset, threads, with_state)
+        # The worlds exist from here (step() works on them), but state() waits for the first
+        # reset, reset_world or step, as every env's state() waits for its reset
+        # (docs/interface.md, "Global state").
+        self._started = False
         self._core_learners = core_learners
         #: :attr:`_learned_opponent_side`, kept here for :meth:`step`'s fast path (it changes
         #: only in :meth:`set_opponent`).
@@ -455,6 +459,7 @@ class BatchEnv:
         """Resets every world; with ``seed``, world i is re-seeded ``seed + i`` (so ``seed +
         num_envs - 1`` must be < 2**64)."""
         out, self._opponent_obs = self._split_opponent(self._core.reset(check_seed(seed, span=self.num_envs, optional=True)))
+        self._started = True
         return out
 
     def state(self) -> np.ndarray:
@@ -463,7 +468,10 @@ class BatchEnv:
         cos θ, sin θ, v/v_max, ω/ω_max), each target (the same, then 1 once its hunt ended,
         else 0), each of the params' K obstacle slots (1, x̂, ŷ, cos φ, sin φ — all 0 when a
         layout left the slot empty), and t / max_steps; x̂, ŷ map the arena onto [−1, 1]².
-        ValueError when a layout put more obstacles in a world than the params count."""
+        ValueError when a layout put more obstacles in a world than the params count;
+        RuntimeError before the first :meth:`reset`, :meth:`reset_world` or :meth:`step`."""
+        if not self._started:
+            raise RuntimeError("call reset() before state()")
         return self._core.state()
 
     def reset_world(self, index: int, seed: int | None = None, layout: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
@@ -473,6 +481,7 @@ class BatchEnv:
         if layout is not None:
             check_tree(layout, "layout")
         out, fresh = self._split_opponent(self._core.reset_world(index, seed, layout))
+        self._started = True
         if fresh is not None and self._opponent_obs is not None:
             self._opponent_obs[index] = fresh[index]
         elif fresh is not None:
@@ -495,6 +504,7 @@ class BatchEnv:
         them into its arrays and returns a dict of them: no allocation, but each step
         overwrites the last, so copy what must outlive it. Nothing moves, and ``out`` is
         untouched, when the actions or ``out`` are wrong (ValueError naming them)."""
+        self._started = True
         side = self._learned_side
         if side is None:
             return self._core.step(wolf_actions, target_actions, out)

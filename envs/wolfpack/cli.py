@@ -27,7 +27,6 @@ import shlex
 import shutil
 import signal
 import sys
-import tempfile
 import threading
 import time
 from contextlib import contextmanager
@@ -37,6 +36,7 @@ from typing import Any, Callable, Iterator, Sequence
 from wolfpack import _core, config, logs
 from wolfpack._checks import MAX_THREADS, check_seed
 from wolfpack.episodes import RunningSummary, run_episodes
+from wolfpack.outputs import Outputs
 from wolfpack.task import TASK_ORDER, outcome_changes, task_params
 
 PROG = "wolfpack"
@@ -91,9 +91,11 @@ With --out DIR (created after the input has been checked; a new or empty folder,
 replace an earlier run's files there). Into a new or empty DIR the run writes a marker file
 DIR/INCOMPLETE first and removes it once summary.json is written: Ctrl-C leaves the episodes
 finished so far, the marker and no summary.json; another failure removes what the run wrote.
-With --force the run is written beside DIR and replaces the earlier run's files only once it
-has finished: a run that fails or is interrupted leaves the earlier run as it was. Every file
-is written under a temporary name and renamed, so every file present is complete.
+With --force the run is written into a staging folder inside DIR and replaces the earlier
+run's files only once it has finished: a run that fails or is interrupted leaves the earlier
+run as it was. --force replaces only what 'wolfpack hunt' wrote (listed in DIR/.wolfpack-outputs.json);
+a DIR holding other files is refused. Every file is written under a temporary name and renamed,
+so every file present is complete.
   DIR/summary.json                    the --json summary plus params (resolved), seed, command,
                                       and episodes_detail (per episode: seed, outcome, steps,
                                       capture_step, cornered_step, energy and collisions per
@@ -245,7 +247,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="with --out DIR holding an earlier run: replace that run's files "
         "(summary.json, summary.png, episode_*/) once this run has finished; "
-        "other files are kept, and a run that fails or is interrupted leaves the earlier one as it was",
+        "a DIR holding files 'wolfpack hunt' did not write is refused, and a run that fails or is interrupted leaves the earlier one as it was",
     )
     hunt.add_argument(
         "--plots",
@@ -495,37 +497,27 @@ class RunWriter:
 
 class RunDir:
     """Where ``hunt --out DIR`` writes, so that a run that does not finish never passes for one
-    that did, and never costs an earlier run its files.
+    that did, and never costs an earlier run its files (:class:`wolfpack.outputs.Outputs`, the
+    ``--out``/``--force`` rules every command shares).
 
     - DIR new or empty: the run writes into DIR, starting with the marker file ``INCOMPLETE``
       (:data:`logs.INCOMPLETE_NAME`), removed only once ``summary.json`` is written. Ctrl-C
-      leaves the episodes finished so far (every file complete), the marker, and no
-      summary.json; any other failure removes what the run wrote.
-    - DIR holding files (``--force``): the run writes into a temporary sibling folder, and only
-      once it has finished are the earlier run's files (:func:`clear_run`) replaced by the new
-      ones; a failure or Ctrl-C removes the temporary folder and leaves DIR as it was.
+      leaves the episodes finished so far (every file complete), the marker, and the manifest
+      listing them (a later ``--force`` replaces them); any other failure removes what the run
+      wrote.
+    - DIR holding an earlier run's outputs (``--force``): the run writes into a staging folder
+      inside DIR, and only once it has finished do its files replace the earlier run's; a
+      failure or Ctrl-C removes the staging folder and leaves DIR as it was. A DIR holding
+      files that no ``wolfpack hunt`` wrote is refused.
     """
 
     def __init__(self, out: Path, force: bool, command: Sequence[str]):
-        if out.exists() and not out.is_dir():
-            raise ValueError(f"--out {out}: exists and is not a directory")
+        self.outputs = Outputs(out, f"{PROG} hunt", force, in_place=True)
         self.out, self.command = out, list(command)
-        self.replacing = out.is_dir() and any(out.iterdir())
-        if self.replacing and not force:
-            raise ValueError(f"--out {out}: not empty (an earlier run?); choose a new folder, or add --force to replace the earlier run's files")
-        self.made: list[Path] = []  # folders this run created, deepest first
-        parent = out
-        while not parent.exists():
-            self.made.append(parent)
-            parent = parent.parent
+        self.replacing = self.outputs.replacing
         self.committed = False
         self.started = time.strftime("%Y-%m-%d %H:%M:%S %z")
-        if self.replacing:
-            base = out.resolve()  # a sibling of DIR itself, also for --out . or --out run/
-            self.work = Path(tempfile.mkdtemp(prefix=f".{base.name}.wolfpack-new-", dir=base.parent))
-        else:
-            out.mkdir(parents=True, exist_ok=True)
-            self.work = out
+        self.work = self.outputs.start()
         self._mark("it is still running, or it stopped before the end (interrupted or failed)")
 
     def _mark(self, state: str) -> None:
@@ -541,38 +533,27 @@ class RunDir:
 
     def commit(self) -> None:
         """The run has written its summary.json into :attr:`work`: make it DIR's run."""
-        if self.replacing:
-            clear_run(self.out)
-            names = sorted((p.name for p in self.work.iterdir() if p.name != logs.INCOMPLETE_NAME), key=lambda n: n == logs.SUMMARY_NAME)
-            for name in names:  # summary.json last
-                os.replace(self.work / name, self.out / name)
-            shutil.rmtree(self.work)
-        else:
-            (self.out / logs.INCOMPLETE_NAME).unlink()
+        (self.work / logs.INCOMPLETE_NAME).unlink()
+        self.outputs.commit(last=logs.SUMMARY_NAME)
         self.committed = True
 
     def discard(self) -> None:
         """The run failed: remove what it wrote (an earlier run in DIR is untouched)."""
         if self.committed:
             return
-        if self.replacing:
-            shutil.rmtree(self.work, ignore_errors=True)
-            return
-        clear_run(self.out)
-        for folder in self.made:
-            try:
-                folder.rmdir()
-            except OSError:
-                break  # someone put a file there meanwhile: leave it
+        if not self.replacing:
+            clear_run(self.out)
+        self.outputs.discard()
 
     def interrupted(self, done: int, total: int) -> str:
         """Ctrl-C: leave DIR as :class:`RunDir` promises; returns what to tell the user."""
         if self.committed:
             return f"; the run had finished: {self.out} holds its complete results"
         if self.replacing:
-            shutil.rmtree(self.work, ignore_errors=True)
+            self.outputs.discard()
             return f"; the earlier run in {self.out} is intact (this run's files were removed)"
         self._mark(f"it was interrupted (Ctrl-C) after {done} of {total} episodes")
+        self.outputs.record()
         return f"; {self.out} is incomplete: {done} of {total} episodes written, marker {logs.INCOMPLETE_NAME}, no summary.json"
 
 

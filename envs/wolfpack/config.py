@@ -162,22 +162,23 @@ def _short(key: str, limit: int = 80) -> str:
     return key if len(key) <= limit else f"{key[:limit]}..."
 
 
-def parse_override(text: str) -> tuple[str, Any]:
+def parse_override(text: str, option: str = "--set") -> tuple[str, Any]:
     """``"world.wolves=8"`` → ``("world.wolves", 8)``; the value is read as YAML (numbers,
-    booleans, lists like ``[-5,-5,5,5]``, ``null``, strings; ``1e-3`` is a float)."""
+    booleans, lists like ``[-5,-5,5,5]``, ``null``, strings; ``1e-3`` is a float). Errors name
+    ``option``, the command-line option the text came from."""
     key, sep, value = text.partition("=")
     key = key.strip()
     if not sep or not key:
-        raise ValueError(f"--set {_short(text)!r}: expected key=value, e.g. world.wolves=8")
+        raise ValueError(f"{option} {_short(text)!r}: expected key=value, e.g. {'learning_rate=1e-4' if option == '--hp' else 'world.wolves=8'}")
     try:
         parsed = _yaml(value) if value.strip() else None
     except yaml.YAMLError:
-        raise ValueError(f"--set {_short(key)}: cannot read value {_short(value)!r}") from None
+        raise ValueError(f"{option} {_short(key)}: cannot read value {_short(value)!r}") from None
     except RecursionError:
-        raise ValueError(f"--set {_short(key)}: value nested deeper than {MAX_DEPTH} levels") from None
+        raise ValueError(f"{option} {_short(key)}: value nested deeper than {MAX_DEPTH} levels") from None
     except ValueError as e:
-        raise ValueError(f"--set {_short(key)}: {' '.join(str(e).split())}") from None
-    check_tree(parsed, f"--set {_short(key)}")
+        raise ValueError(f"{option} {_short(key)}: {' '.join(str(e).split())}") from None
+    check_tree(parsed, f"{option} {_short(key)}")
     return key, parsed
 
 

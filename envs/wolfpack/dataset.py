@@ -27,7 +27,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
 import time
 import warnings
 from pathlib import Path
@@ -37,6 +36,7 @@ import numpy as np
 
 from wolfpack.batch import OUTCOMES, BatchEnv
 from wolfpack.opponents import SIDES, Opponent, bring_observation, mode_key
+from wolfpack.outputs import Outputs
 from wolfpack.task import check_task, gym_id, single_target_tasks, task_params
 
 #: The arrays of ``trajectories.npz``: per step (T = all episodes' steps), per episode (K), or
@@ -64,12 +64,12 @@ CHUNK = 256
 def _driver(policy: Any, side: str) -> Opponent:
     if side not in SIDES:
         raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
-    return policy if isinstance(policy, Opponent) else Opponent(policy, side=side, deterministic=True)
+    return policy if isinstance(policy, Opponent) else Opponent(policy, side=side, deterministic=True, role="policy")
 
 
 def policy_side(policy: Any) -> str:
     """The side a law or a saved model plays (ValueError when it cannot say: a callable)."""
-    driver = Opponent(policy) if not isinstance(policy, Opponent) else policy
+    driver = Opponent(policy, role="policy") if not isinstance(policy, Opponent) else policy
     if driver.side is None:
         raise ValueError(f"{driver.name!r}: say which side it plays (side='wolves' or 'targets')")
     return driver.side
@@ -262,9 +262,11 @@ def make(
     task, policy, side, episodes, seed, steps, outcomes, format, collect and write seconds,
     files and bytes.
 
-    With ``force`` an occupied ``out`` is replaced, but only once the new dataset is complete:
-    it is written into a folder beside ``out`` and swapped in, so a run that fails or is
-    interrupted leaves the earlier dataset as it was."""
+    The dataset is written into a staging folder inside ``out`` and moved in only once it is
+    complete, so a run that fails or is interrupted leaves ``out`` as it was. With ``force`` an
+    ``out`` holding an earlier dataset is replaced then: the files an earlier ``wolfpack
+    dataset`` wrote there (its manifest, :mod:`wolfpack.outputs`, lists them) go, nothing else
+    does; an ``out`` holding other files is a ValueError."""
     check_task(task)
     side = side or policy_side(policy)
     driver = _driver(policy, side)
@@ -274,22 +276,12 @@ def make(
     if fmt == "minari" and not one_learner:
         raise ValueError(f"Minari's format holds one agent's view: a target policy on a task with one target ({', '.join(single_target_tasks())}); use npz")
     fmt = ("minari" if one_learner else "npz") if fmt == "auto" else fmt
-    out = Path(out)
-    occupied = out.exists() and (not out.is_dir() or any(out.iterdir()))
-    if occupied and not (force and out.is_dir()):
-        raise ValueError(f"--out {out}: not a new or empty folder" + ("" if force else " (--force replaces it)"))
-    if not occupied:
-        return _make_into(out, task, driver, side, episodes, seed, fmt, threads, command, progress)
-    staging = out.with_name(f".{out.name}.partial-{os.getpid()}")
-    shutil.rmtree(staging, ignore_errors=True)
+    outputs = Outputs(out, "wolfpack dataset", force)
     try:
-        meta = _make_into(staging, task, driver, side, episodes, seed, fmt, threads, command, progress)
-        earlier = out.with_name(f".{out.name}.replaced-{os.getpid()}")
-        out.rename(earlier)
-        staging.rename(out)
-        shutil.rmtree(earlier, ignore_errors=True)
+        meta = _make_into(outputs.start(), task, driver, side, episodes, seed, fmt, threads, command, progress)
+        outputs.commit(last="dataset.json")
     finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        outputs.discard()
     return meta
 
 

@@ -24,8 +24,10 @@ standard; needs the [dataset] extra, Python >= 3.11): the dataset wolfpack/<task
 under DIR; read it with MINARI_DATASETS_PATH=DIR and minari.load_dataset(ID). Anything else
 (wolves; two targets; or --format npz) is written as the whole multi-agent trajectories in
 DIR/trajectories.npz (read with wolfpack.dataset.load_npz). Either way DIR/dataset.json says
-what is there (written last). An occupied DIR is refused unless --force, which writes the new
-dataset beside it and swaps it in only once it is complete."""
+what is there (written last). The dataset is written into a staging folder inside DIR and moved
+in only once it is complete. An occupied DIR is refused unless --force, which replaces an
+earlier dataset there: only the files 'wolfpack dataset' wrote (listed in
+DIR/.wolfpack-outputs.json); a DIR holding other files is refused."""
 
 DATASET_EPILOG = """\
 examples:
@@ -53,7 +55,11 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--format", dest="fmt", choices=("auto", "minari", "npz"), default="auto", help="auto (default): Minari for a target on a one-target task, else npz")
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
     p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="a new or empty folder (or --force)")
-    p.add_argument("--force", action="store_true", help="replace an occupied DIR, once the new dataset is complete (a failed run leaves the old one)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an earlier dataset in DIR once the new one is complete (a failed run leaves the old one; a DIR holding files 'wolfpack dataset' did not write is refused)",
+    )
     p.add_argument("--json", action="store_true", help="print dataset.json's content as one JSON object")
     p.set_defaults(func=cmd_dataset)
     return p

@@ -30,9 +30,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from wolfpack.opponents import CONFIG_FILE, SIDES, find_model, load_sb3, run_label, side_action_mode
+from wolfpack.opponents import CONFIG_FILE, SIDES, find_model, load_sb3, read_config, run_label, side_action_mode
 
 #: The native model folder's weights file.
 POLICY_FILE = "policy.pt"
@@ -50,14 +49,57 @@ def native_model_folders(where: str | Path) -> dict[str, Path]:
     return {side: path / side for side in SIDES if (path / side / POLICY_FILE).is_file()}
 
 
+#: The keys of a native model's ``network:`` (the actor's shape, :class:`wolfpack.learn.nets.Actor`).
+NETWORK_KEYS = ("obs_dim", "agents", "hidden", "activation", "log_std_init", "agent_id", "norm_obs")
+
+
 def _read_config(folder: Path) -> dict:
+    """A native model folder's ``config.yaml``, checked for what loading it needs: ``side``,
+    ``algo``, ``network`` (the actor's shape) and ``params`` (what it was trained on).
+    ValueError naming the file and what is wrong."""
     config_path = folder / CONFIG_FILE
     if not config_path.is_file():
         raise ValueError(f"model {folder}: no {CONFIG_FILE} beside {POLICY_FILE} (which params was it trained on?)")
-    config = yaml.safe_load(config_path.read_text()) or {}
+    config = read_config(config_path)
     if config.get("side") not in SIDES:
         raise ValueError(f"model {folder}: {CONFIG_FILE} names no side ('wolves' or 'targets')")
+    if not isinstance(config.get("algo"), str) or not config["algo"]:
+        raise ValueError(f"{config_path}: no algo: (the algorithm that trained it, e.g. mappo)")
+    network = config.get("network")
+    if not isinstance(network, dict):
+        raise ValueError(f"{config_path}: no network: mapping (the actor's shape: {', '.join(NETWORK_KEYS)})")
+    missing = [k for k in NETWORK_KEYS if k not in network]
+    if missing or set(network) - set(NETWORK_KEYS):
+        wrong = f"lacks {', '.join(missing)}" if missing else f"has unknown keys {', '.join(sorted(set(network) - set(NETWORK_KEYS)))}"
+        raise ValueError(f"{config_path}: network: {wrong} (its keys are {', '.join(NETWORK_KEYS)})")
+    obs_dim = network["obs_dim"]
+    if not isinstance(obs_dim, int) or isinstance(obs_dim, bool) or obs_dim < 1:
+        raise ValueError(f"{config_path}: network.obs_dim must be an integer >= 1, got {obs_dim!r}")
+    params = config.get("params")
+    if not isinstance(params, dict) or not isinstance(params.get("env"), dict):
+        raise ValueError(f"{config_path}: no params: mapping with env: (the scenario it was trained on, which says what it observes)")
     return config
+
+
+def load_tensors(path: Path, map_location: Any = "cpu") -> Any:
+    """``torch.load(path, weights_only=True)``: tensors and plain containers only, never code.
+    ValueError naming the file when it is truncated, corrupt, not a torch file, or holds
+    anything else (torch's own advice to load it unsafely is not passed on)."""
+    import pickle
+    import warnings
+
+    import torch
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # e.g. a pickle protocol other than torch's default
+            return torch.load(path, map_location=map_location, weights_only=True)
+    except (FileNotFoundError, PermissionError, IsADirectoryError):
+        raise
+    except pickle.UnpicklingError:
+        raise ValueError(f"{path}: holds objects other than tensors; wolfpack loads only tensors from its .pt files (was it written by something else?)") from None
+    except Exception:  # a truncated zip is an OSError, garbage a KeyError: the file, not the disk
+        raise ValueError(f"{path}: cannot read it (truncated, corrupt or not a file torch wrote)") from None
 
 
 def pick_side(folders: dict[str, Path], where: Any, side: str | None) -> str:
@@ -104,15 +146,27 @@ class SavedPolicy:
         return dim == self.obs_dim
 
     def check(self, obs: Any) -> np.ndarray:
-        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D does not fit."""
+        """``obs`` as float32 rows [n, D]; ValueError naming both sizes when D does not fit, or
+        naming the row that holds NaN or inf (a native model would answer it with NaN actions,
+        an SB3 one with an error from deep inside torch)."""
         x = np.ascontiguousarray(obs, dtype=np.float32)
         if x.ndim < 1 or not self.accepts(x.shape[-1]):
             raise ValueError(f"model {self.name!r} takes observations [n, {self.obs_dim}], got shape {tuple(x.shape)}")
-        return x.reshape(-1, x.shape[-1])
+        x = x.reshape(-1, x.shape[-1])
+        finite = np.isfinite(x).all(axis=1)
+        if not finite.all():
+            raise ValueError(f"model {self.name!r}: observation row {int(np.argmin(finite))} holds NaN or inf")
+        return x
 
     def act(self, obs: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None) -> np.ndarray:
         """Actions [..., 2] for observations [..., D] (float32, clipped to [-1, 1]): the
-        policy's mode, or with ``deterministic=False`` a draw with ``rng``."""
+        policy's mode, or with ``deterministic=False`` a draw with ``rng`` (a numpy
+        ``Generator``; None: a fresh unseeded one). TypeError for a ``deterministic`` that is not
+        True or False (``"no"`` would read as True) or an ``rng`` that is no generator."""
+        if not isinstance(deterministic, (bool, np.bool_)):
+            raise TypeError(f"deterministic must be True or False, got {deterministic!r}")
+        if rng is not None and not isinstance(rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy random generator (np.random.default_rng(seed)) or None, got {rng!r}")
         x = self.check(obs)
         return self._act(x, deterministic, rng).reshape(*np.shape(obs)[:-1], 2)
 
@@ -129,19 +183,24 @@ class NativePolicy(SavedPolicy):
     def __init__(self, folder: Path, config: dict) -> None:
         from wolfpack._optional import require
 
-        torch = require("torch", f"loading the model {folder}")
+        require("torch", f"loading the model {folder}")
         from wolfpack.learn.sets import build_actor
 
         arch = config["network"]
         super().__init__(side=config["side"], algo=config["algo"], obs_dim=int(arch["obs_dim"]), config=config, name=native_label(folder, config), path=folder)
-        self.actor = build_actor(arch)
         #: The kinds of entity row it met in training (a model over entity observations).
         self.entity_kinds: list[str] | None = config.get("entity_kinds")
         try:
-            state = torch.load(folder / POLICY_FILE, map_location="cpu", weights_only=True)
+            self.actor = build_actor(arch)
+        except Exception as e:  # a value of the wrong kind (hidden: "x", activation: "sigmoid")
+            raise ValueError(f"{folder / CONFIG_FILE}: network: cannot build the actor from it ({_one_line(e)})") from None
+        state = load_tensors(folder / POLICY_FILE)
+        try:
             self.actor.load_state_dict(state)
-        except Exception as e:  # a truncated or foreign file: say which
-            raise ValueError(f"model {folder}: cannot load {POLICY_FILE} ({type(e).__name__}: {e})") from None
+        except Exception as e:  # another network's weights: say which file
+            raise ValueError(f"model {folder}: {POLICY_FILE} does not fit the network in {CONFIG_FILE} ({_one_line(e)})") from None
+        if not all(bool(p.isfinite().all()) for p in self.actor.state_dict().values() if p.is_floating_point()):
+            raise ValueError(f"{folder / POLICY_FILE}: holds NaN or inf weights (damaged, or saved from a run that diverged)")
         self.actor.eval()
 
     def accepts(self, dim: int) -> bool:
@@ -187,6 +246,11 @@ class SB3Policy(SavedPolicy):
         return sampler.act(x)
 
 
+def _one_line(e: BaseException) -> str:
+    text = " ".join(str(e).split())
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
 def native_label(folder: Path, config: dict) -> str:
     """``<algo>:<run>`` (``mappo:wolves``); a both-sides run adds the side (``mappo:both/wolves``),
     a checkpoint its agent steps (``mappo:wolves@1228800``)."""
@@ -214,7 +278,7 @@ def load_policy(where: str | Path, side: str | None = None) -> SavedPolicy:
         zip_path, config_path = find_model(where)
     except FileNotFoundError:
         raise ValueError(f"model {where}: no model there (a run folder of 'wolfpack train', its model folder, or an SB3 model.zip)") from None
-    config = (yaml.safe_load(config_path.read_text()) or {}) if config_path is not None else {}
+    config = read_config(config_path) if config_path is not None else {}
     policy = SB3Policy(zip_path, config)
     if side is not None and policy.side not in (None, side):
         raise ValueError(f"model {where}: trained for the {policy.side}, not the {side}")

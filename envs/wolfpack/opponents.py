@@ -125,6 +125,35 @@ def _is_native(where: str | Path) -> bool:
     return bool(native_model_folders(where))
 
 
+def read_config(path: Path) -> dict:
+    """A model's ``config.yaml`` as a mapping (an empty file: {}); ValueError naming the file
+    when it is not YAML or not a mapping of keys."""
+    import yaml
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (a model's config.yaml is YAML)") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(e, "problem", None) or "unreadable"
+        raise ValueError(f"{path}: not valid YAML{at} ({problem}); a model's config.yaml is a mapping of keys (side, algo, network, params)") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        what = "a list" if isinstance(data, list) else f"the single value {_short_value(data)}"
+        raise ValueError(f"{path}: holds {what}, not a mapping of keys (side, algo, network, params)")
+    return data
+
+
+def _short_value(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def find_model(where: str | Path) -> tuple[Path, Path | None]:
     """(the model's zip, its run's ``config.yaml`` or None) for a zip path (``.zip`` may be left
     out) or a run folder (``DIR/model.zip``); a checkpoint's run folder is its zip's parent or
@@ -156,7 +185,7 @@ def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
             raise ValueError(f"unknown algorithm {algo!r} (one of {', '.join(classes)})")
         return classes[algo].load(zip_path, device=device)
     except Exception as e:  # a truncated or foreign zip: say which file
-        raise ValueError(f"opponent {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
+        raise ValueError(f"model {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
 
 
 def run_label(zip_path: Path, config: dict) -> str:
@@ -186,8 +215,10 @@ class Opponent:
         seed: seeds the sampling generator (``deterministic=False``).
         action_mode: ``"unicycle"`` or ``"velocity"``, the mode its actions are in; None: a
             run folder's own, else the env's.
-        name: the label in tables and errors (default: the law, ``<algo>:<run folder>``, or the
-            callable's name).
+        name: the label in tables and errors (default: the law, ``<algo>:<run folder>``, a
+            loaded model's own name, or the callable's name).
+        role: what errors call it while it is built (``"policy"`` where it is the policy being
+            scored or recorded).
 
     Attributes: ``kind`` (``"scripted"``, ``"model"`` or ``"callable"``), ``law`` (scripted),
     ``obs_dim`` (the observation size a model takes, None for a callable), ``config`` (a run
@@ -203,6 +234,7 @@ class Opponent:
         seed: int = 0,
         action_mode: str | None = None,
         name: str | None = None,
+        role: str = "opponent",
     ) -> None:
         if side is not None and side not in SIDES:
             raise ValueError(f"opponent side must be 'wolves' or 'targets', got {side!r}")
@@ -230,7 +262,7 @@ class Opponent:
             self.kind, self.law = "scripted", policy
             law_side = _law_side(policy)
             if side is not None and side != law_side:
-                raise ValueError(f"opponent {policy!r} is a law of the {law_side}, not of the {side}")
+                raise ValueError(f"{role} {policy!r} is a law of the {law_side}, not of the {side}")
             side, label = law_side, policy
         elif isinstance(policy, (str, Path)) and _is_native(policy):
             from wolfpack.models import load_policy
@@ -248,16 +280,14 @@ class Opponent:
             try:
                 zip_path, config_path = find_model(policy)
             except FileNotFoundError as e:
-                raise ValueError(f"opponent {str(policy)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({e})") from None
+                raise ValueError(f"{role} {str(policy)!r}: not a scripted law ({', '.join(SCRIPTED_LAWS['wolves'] + SCRIPTED_LAWS['targets'])}) and no model file there ({e})") from None
             if config_path is not None:
-                import yaml
-
-                self.config = yaml.safe_load(config_path.read_text()) or {}
+                self.config = read_config(config_path)
             self.model = load_sb3(zip_path, self.config.get("algo"))
             trained_side = self.config.get("side")
             if trained_side in SIDES:
                 if side is not None and side != trained_side:
-                    raise ValueError(f"opponent {zip_path}: trained for the {trained_side}, asked to drive the {side}")
+                    raise ValueError(f"{role} {zip_path}: trained for the {trained_side}, asked to drive the {side}")
                 side = trained_side
             trained = self.config.get("params") or {}
             if mode is None and "env" in trained:
@@ -265,14 +295,15 @@ class Opponent:
             label = run_label(zip_path, self.config) if self.config else zip_path.stem
         elif callable(getattr(policy, "predict", None)) and hasattr(policy, "observation_space"):
             self.kind, self.model = "model", policy
-            label = type(policy).__name__
+            # A wolfpack.load_policy model knows its name; an SB3 model only its class.
+            label = policy.name if isinstance(getattr(policy, "name", None), str) else type(policy).__name__
         elif callable(policy):
             self.kind, self._call = "callable", policy
             label = getattr(policy, "__name__", type(policy).__name__)
         else:
-            raise TypeError(f"opponent must be a law's name, a model path, an SB3 model or policy, or a callable obs -> actions; got {type(policy).__name__}")
+            raise TypeError(f"{role} must be a law's name, a model path, an SB3 model or policy, or a callable obs -> actions; got {type(policy).__name__}")
         if self.model is not None:
-            self._check_spaces()
+            self._check_spaces(role)
             self.entity_kinds = getattr(self.model, "entity_kinds", None)
         self.side = side
         self.action_mode = mode
@@ -280,12 +311,12 @@ class Opponent:
             self.observation = side_observation(trained, side)
         self.name = name or label
 
-    def _check_spaces(self) -> None:
+    def _check_spaces(self, role: str) -> None:
         obs_space, act_space = self.model.observation_space, self.model.action_space
         if getattr(obs_space, "shape", None) is None or len(obs_space.shape) != 1:
-            raise ValueError(f"opponent: a model with observations of shape {getattr(obs_space, 'shape', None)}; wolfpack's are vectors")
+            raise ValueError(f"{role}: a model with observations of shape {getattr(obs_space, 'shape', None)}; wolfpack's are vectors")
         if getattr(act_space, "shape", None) != (2,):
-            raise ValueError(f"opponent: the model's actions have shape {getattr(act_space, 'shape', None)}, a wolfpack agent's action has 2 entries")
+            raise ValueError(f"{role}: the model's actions have shape {getattr(act_space, 'shape', None)}, a wolfpack agent's action has 2 entries")
         self.obs_dim = int(obs_space.shape[0])
 
     def fits(self, dim: int) -> bool:

@@ -63,7 +63,7 @@ def as_policy(policy: Any, side: str) -> Opponent:
         if policy.side not in (None, side):
             raise ValueError(f"{policy.name!r} drives the {policy.side}, not the {side}")
         return policy
-    return Opponent(policy, side=side, deterministic=True)
+    return Opponent(policy, side=side, deterministic=True, role="policy")
 
 
 def score_task(

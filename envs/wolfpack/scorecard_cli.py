@@ -30,7 +30,9 @@ ranked (the baselines played the tasks as they are).
 
 Without --out the scorecard is printed as a Markdown table; with --out DIR (a new or empty
 folder) DIR gets scorecard.json (every task's report, the ranks and the baselines compared
-with), scorecard.md and scorecard.png."""
+with), scorecard.md and scorecard.png. --force replaces an earlier scorecard there (only the
+files 'wolfpack benchmark' wrote, listed in DIR/.wolfpack-outputs.json; a DIR holding other
+files is refused)."""
 
 BENCHMARK_EPILOG = """\
 examples:
@@ -72,7 +74,8 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
         help="override a parameter of every task by its dotted key (value read as YAML); repeatable; the scorecard is then not ranked",
     )
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
-    p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty)")
+    p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty, or --force)")
+    p.add_argument("--force", action="store_true", help="with --out DIR holding an earlier scorecard: replace its files once the new one is written (a DIR holding other files is refused)")
     p.add_argument("--json", action="store_true", help="print the scorecard as one JSON object instead of the table")
     p.set_defaults(func=cmd_benchmark)
     return p
@@ -83,6 +86,7 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
 
     from wolfpack import config, scorecard
     from wolfpack.evaluation import HELD_OUT_SEED
+    from wolfpack.outputs import Outputs
 
     side = "wolves" if args.wolves is not None else "targets"
     policy = args.wolves if side == "wolves" else args.targets
@@ -94,8 +98,8 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     else:
         tasks = [check_task(t) for t in args.tasks] if args.tasks else list(TASK_ORDER)
     out = Path(args.out) if args.out is not None else None
-    if out is not None and out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ValueError(f"--out {out}: not a new or empty folder")
+    # Checked before any episode; nothing is written until the scorecard is complete.
+    outputs = Outputs(out, "wolfpack benchmark", args.force) if out is not None else None
     # A bad key or value fails in scorecard(), before any episode and before anything is written.
     overrides = dict(config.parse_override(text) for text in args.overrides)
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
@@ -104,8 +108,12 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     with tqdm(total=args.episodes * len(tasks) * players, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
         card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides, track=args.track)
     card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
-    if out is not None:
-        paths = scorecard.write(card, out)
+    if outputs is not None:
+        try:
+            paths = [out / p.name for p in scorecard.write(card, outputs.start())]
+            outputs.commit(last="scorecard.json")
+        finally:
+            outputs.discard()
     if args.json:
         print(json.dumps(card))
     else:

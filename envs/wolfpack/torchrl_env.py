@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from wolfpack._checks import check_seed
 from wolfpack._optional import require
 from wolfpack.batch import OUTCOMES, BatchEnv
 
@@ -74,6 +75,12 @@ class WolfpackEnv(EnvBase):
         device: Any = "cpu",
         **overrides: Any,
     ) -> None:
+        try:
+            where = torch.device(device)
+        except (RuntimeError, TypeError):
+            raise ValueError(f"device: {device!r} is not a torch device (e.g. 'cpu', 'cuda', 'cuda:0')") from None
+        if where.type == "cuda" and not torch.cuda.is_available():
+            raise ValueError(f"device: {device!r}, but there is no CUDA device here (torch.cuda.is_available() is False)")
         if learners == "none":
             raise ValueError("learners: the TorchRL view needs a learning side ('wolves', 'targets' or 'all'); to watch the laws play, use wolfpack.BatchEnv or wolfpack hunt")
         self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, opponent=opponent, with_state=True, **overrides)
@@ -113,7 +120,9 @@ class WolfpackEnv(EnvBase):
     # --- TorchRL's hooks -----------------------------------------------------------------------
 
     def _set_seed(self, seed: int | None) -> None:
-        self._seed = seed
+        # Checked before it is stored: a bad seed must not make every later reset() fail.
+        # World i takes seed + i, so seed + num_envs - 1 must be a seed too.
+        self._seed = check_seed(seed, "seed", span=self.batch.num_envs, optional=True)
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
         which = self._reset_mask(tensordict)
@@ -177,7 +186,10 @@ class WolfpackEnv(EnvBase):
     # --- helpers -------------------------------------------------------------------------------
 
     def _actions(self, tensordict: TensorDictBase, side: str) -> np.ndarray:
-        a = tensordict.get((side, "action"))
+        a = tensordict.get((side, "action"), None)
+        if a is None:  # TorchRL defines no error of its own for this; a missing key is a KeyError
+            e, k = self.batch.num_envs, self._agents[side]
+            raise KeyError(f"step: the tensordict has no ({side!r}, 'action') entry: the {side}' actions, float32 [{e}, {k}, 2] in [-1, 1] (env.full_action_spec)")
         return np.ascontiguousarray(a.detach().to("cpu", torch.float32).numpy())
 
     @staticmethod

@@ -10,11 +10,17 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
+from wolfpack._checks import is_int
+from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
 from wolfpack.learn.tasks import VARIANTS, parse_vary, task_list, world_groups
 from wolfpack.task import TASK_ORDER
 
 DEVICES = ("auto", "cpu", "cuda")
+#: ``--seed`` is below this: the training worlds take ``TRAIN_SEED_BASE·(S+1) + e`` (and a
+#: resumed run ``num_envs`` more per resume), which must stay below 2**64 (≈ 1.8e19); 10**13
+#: leaves room for a billion worlds' worth of resumes.
+SEED_END = 10**13
 
 TRAIN_DESCRIPTION = """\
 Train wolves, targets or both sides at once with PPO on the native batch.
@@ -86,7 +92,7 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="run folder (new or empty, or the run to --resume)")
     p.add_argument("--time-limit", metavar="MIN", type=_positive_minutes, default=None, help="stop after this many minutes of this invocation")
     p.add_argument("--timesteps", metavar="N", type=_int_at_least(1), default=None, help="stop after this many agent-steps in all")
-    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds (default 0)")
+    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds 1000000*(S+1)+e; 0 <= S < 10^13 (default 0)")
     p.add_argument(
         "--opponent",
         metavar="LAW_OR_MODEL",
@@ -146,7 +152,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from wolfpack import config
 
     overrides = dict(config.parse_override(text) for text in args.overrides)
-    hp = dict(config.parse_override(text) for text in args.hp)
+    hp = dict(config.parse_override(text, "--hp") for text in args.hp)
     summary = run_training(
         learners=args.side,
         algo=args.algo,
@@ -258,25 +264,88 @@ def resolve_device(device: str):
     return device
 
 
-def prepare_out(out: Path, resume: bool, identity: dict) -> None:
-    """A new or empty ``out``; with ``resume``, a run folder of the same configuration. Nothing
-    is written before this passes."""
-    from wolfpack.opponents import CONFIG_FILE
+def prepare_out(out: Path, resume: bool, identity: dict) -> bool:
+    """A new or empty ``out``, or one holding a run that stopped before its first update
+    (:func:`without_progress`: it starts afresh there); with ``resume``, a run folder of the
+    same configuration. Nothing is written before this passes. Returns whether the run goes on
+    from a saved state (False: it starts afresh)."""
+    from wolfpack.opponents import CONFIG_FILE, read_config
 
     config_path = out / CONFIG_FILE
     if resume:
         if not config_path.is_file():
             raise ValueError(f"--resume: {out} holds no run of 'wolfpack train' (no {CONFIG_FILE})")
-        import yaml
-
-        theirs = yaml.safe_load(config_path.read_text()) or {}
+        theirs = read_config(config_path)
         mine = json.loads(json.dumps(identity))
         for key, value in mine.items():
             if theirs.get(key) != value:
                 raise ValueError(f"--resume: {out} is a run with another {key} ({_short(theirs.get(key))} there, {_short(value)} here); resume it with the same arguments, or use another --out")
-        return
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        # Stopped before its first update (Ctrl-C during start-up): nothing to go on from, and
+        # nothing lost by starting afresh.
+        return not without_progress(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not without_progress(out):
         raise ValueError(f"--out {out}: not a new or empty folder (continue a run there with --resume)")
+    return False
+
+
+#: What a run writes before its first update: its configuration, the header of progress.csv and
+#: TensorBoard's first (empty) event file.
+START_UP_FILES = ("config.yaml", "progress.csv", "events.out.tfevents.*")
+
+
+def without_progress(out: Path) -> bool:
+    """Whether ``out`` holds a run of ``wolfpack train`` stopped before its first update
+    (Ctrl-C during start-up, or a failure then): its ``config.yaml``, a ``progress.csv`` of at
+    most its header, TensorBoard's event files, and nothing else. A rerun may start afresh
+    there, with or without ``--resume``: no model, row or evaluation is lost."""
+    from wolfpack.opponents import CONFIG_FILE, read_config
+
+    if not (out / CONFIG_FILE).is_file():
+        return False
+    for path in out.iterdir():
+        if not path.is_file() or not any(path.match(pattern) for pattern in START_UP_FILES):
+            return False
+        if path.name == "progress.csv" and len(path.read_bytes().splitlines()) > 1:
+            return False
+    try:
+        return read_config(out / CONFIG_FILE).get("trainer") == "wolfpack train"
+    except ValueError:
+        return False  # not a config this command wrote: someone else's file
+
+
+def _clear_start_up(out: Path) -> None:
+    """Removes what a run stopped before its first update left (:func:`without_progress`), so
+    that progress.csv starts with its header again."""
+    if out.is_dir():
+        for pattern in START_UP_FILES[1:]:
+            for path in out.glob(pattern):
+                path.unlink()
+
+
+def check_rollout_memory(worlds: list[dict], learners: str, algo: str, recipes: dict) -> None:
+    """The rollout buffers of every learning side against the memory available
+    (:func:`wolfpack.learn.recipes.check_memory`), sized on a one-world batch of each of
+    ``worlds`` (the params of every group of worlds; the largest counts for all of them)."""
+    from wolfpack.batch import BatchEnv
+    from wolfpack.learn.recipes import check_memory, rollout_bytes
+
+    batch = recipes["wolves" if learners == "both" else learners]  # the batch's keys are the first side's
+    sides = ("wolves", "targets") if learners == "both" else (learners,)
+    needed = 0
+    for params in worlds:
+        probe = BatchEnv(params, num_envs=1, learners="all" if learners == "both" else learners)
+        sized = (
+            rollout_bytes(
+                batch,
+                agents=probe.n_wolves if side == "wolves" else probe.n_targets,
+                obs_dim=probe.wolf_obs_dim if side == "wolves" else probe.target_obs_dim,
+                state_dim=probe.state_dim,
+                centralised=algo == "mappo",
+            )
+            for side in sides
+        )
+        needed = max(needed, sum(sized))
+    check_memory(batch, needed)
 
 
 def _short(v: Any) -> str:
@@ -316,6 +385,8 @@ def run_training(
         raise ValueError(f"--side must be one of {', '.join(LEARNERS)}, got {learners!r}")
     if algo not in ALGOS:
         raise ValueError(f"--algo must be one of {', '.join(ALGOS)}, got {algo!r}")
+    if not is_int(seed) or not 0 <= seed < SEED_END:
+        raise ValueError(f"--seed must be an integer in [0, 10^13), got {seed!r}: the training worlds are seeded {TRAIN_SEED_BASE}*(S+1)+e, and every world's seed must stay below 2^64")
     if time_limit_min is None and timesteps is None:
         raise ValueError("give a budget: --time-limit MINUTES and/or --timesteps N")
     if time_limit_min is not None and not (time_limit_min > 0):
@@ -385,8 +456,9 @@ def run_training(
         eval_tasks=tuple(eval_tasks),
         task_weights=task_weights,
     )
+    check_rollout_memory([params for _, _, params in groups] or [resolved], learners, algo, recipes)
     out = Path(out)
-    prepare_out(out, resume, spec.identity())
+    resume = prepare_out(out, resume, spec.identity())
     torch.set_num_threads(spec.torch_threads)
     # Building the trainer builds the batch and loads the opponent: a model of the wrong side or
     # observation size fails here, before anything is written.
@@ -398,6 +470,7 @@ def run_training(
         from wolfpack.opponents import CONFIG_FILE
 
         out.mkdir(parents=True, exist_ok=True)
+        _clear_start_up(out)
         config = {
             **spec.identity(),
             "task": tasks[0] if len(tasks) == 1 else (tasks or None),
@@ -415,4 +488,13 @@ def run_training(
             "versions": versions(),
         }
         (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
-    return trainer.run()
+    try:
+        return trainer.run()
+    except KeyboardInterrupt:
+        # The exit-status table promises one line saying what --out holds.
+        from wolfpack.cli import Interrupted
+        from wolfpack.learn.trainer import TRAINER_FILE
+
+        if (out / TRAINER_FILE).is_file():
+            raise Interrupted(f"; {out} holds the models and the resume state at {trainer.agent_steps:,} agent-steps: continue with --resume") from None
+        raise Interrupted(f"; {out} holds no progress yet: the same command starts afresh there") from None

@@ -3,6 +3,8 @@ algorithm, ``default`` with the ``<side>.<algo>`` section on top, then a run's o
 
 from __future__ import annotations
 
+import math
+import os
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -18,6 +20,8 @@ ALGOS = ("ippo", "mappo")
 # Recipe keys that are params overrides rather than hyperparameters: the learning side's reward
 # weights (params rewards.<side>.*) and the learning interface (params env.*).
 PARAMS_SECTIONS = ("rewards", "env")
+#: The range of ``log_std_init``.
+LOG_STD_RANGE = (-20, 2)
 
 
 def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> dict:
@@ -49,18 +53,24 @@ def _check(r: dict) -> None:
         if not ok:
             raise ValueError(f"--hp {key}: must be {what}, got {r[key]!r}")
 
-    is_num = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)  # noqa: E731
+    # Finite numbers only: an infinite or NaN learning rate, entropy weight or log σ passes a
+    # bare "> 0" test and then makes every action NaN in the first update, leaving a run that
+    # neither trains nor resumes.
+    is_num = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)  # noqa: E731
     for key in ("num_envs", "n_steps", "epochs", "minibatch_size"):
         need(key, isinstance(r[key], int) and not isinstance(r[key], bool) and r[key] >= 1, "an integer >= 1")
-    for key in ("learning_rate", "max_grad_norm", "clip"):
-        need(key, is_num(r[key]) and r[key] > 0, "a number > 0")
+    # Adam's step and PPO's ratio clip: beyond 1 neither means anything.
+    for key in ("learning_rate", "clip"):
+        need(key, is_num(r[key]) and 0 < r[key] <= 1, "a number in (0, 1]")
+    need("max_grad_norm", is_num(r["max_grad_norm"]) and r["max_grad_norm"] > 0, "a finite number > 0")
     for key in ("gamma", "gae_lambda"):
         need(key, is_num(r[key]) and 0 <= r[key] <= 1, "a number in [0, 1]")
-    for key in ("ent_coef", "vf_coef"):
-        need(key, is_num(r[key]) and r[key] >= 0, "a number >= 0")
+    need("ent_coef", is_num(r["ent_coef"]) and 0 <= r["ent_coef"] <= 1, "a number in [0, 1]")
+    need("vf_coef", is_num(r["vf_coef"]) and r["vf_coef"] >= 0, "a finite number >= 0")
     for key in ("clip_value", "target_kl"):
-        need(key, r[key] is None or (is_num(r[key]) and r[key] > 0), "null or a number > 0")
-    need("log_std_init", is_num(r["log_std_init"]), "a number")
+        need(key, r[key] is None or (is_num(r[key]) and r[key] > 0), "null or a finite number > 0")
+    # The Gaussian's log σ at the start, on actions in [-1, 1]: σ from 2e-9 to e^2 = 7.4.
+    need("log_std_init", is_num(r["log_std_init"]) and LOG_STD_RANGE[0] <= r["log_std_init"] <= LOG_STD_RANGE[1], f"a number in [{LOG_STD_RANGE[0]}, {LOG_STD_RANGE[1]}]")
     need(
         "hidden",
         isinstance(r["hidden"], list) and len(r["hidden"]) >= 1 and all(isinstance(h, int) and not isinstance(h, bool) and h >= 1 for h in r["hidden"]),
@@ -109,3 +119,40 @@ def params_overrides(side: str, r: dict) -> dict:
 
 #: The params key under ``env`` of each side's own observation layout.
 OBSERVATION_KEY = {"wolves": "wolf_observation", "targets": "target_observation"}
+
+
+def rollout_bytes(r: Mapping[str, Any], *, agents: int, obs_dim: int, state_dim: int, centralised: bool) -> int:
+    """The bytes of one learning side's rollout buffers (float32, allocated when training
+    starts): per world-step and agent its observation, action (2), log-probability, value,
+    reward, advantage and return, per world-step the done flag and, centralised, the state."""
+    per_world_step = agents * (obs_dim + 7) + 1 + (state_dim if centralised else 0)
+    return 4 * int(r["num_envs"]) * int(r["n_steps"]) * per_world_step
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this machine can give a new allocation now (Linux's MemAvailable, else
+    its physical memory); None where neither is known."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def check_memory(r: Mapping[str, Any], needed: int, available: int | None = None) -> None:
+    """ValueError naming ``num_envs`` and ``n_steps`` when the rollout buffers (``needed``
+    bytes, :func:`rollout_bytes` of every learning side) exceed the memory ``available`` (default
+    :func:`available_memory`): refused before anything is written, rather than an allocation
+    failing once the run folder exists."""
+    available = available_memory() if available is None else available
+    if available is not None and needed > available:
+        raise ValueError(
+            f"--hp num_envs x n_steps: the rollout buffers of {int(r['num_envs']):,} worlds x {int(r['n_steps']):,} steps take "
+            f"{needed / 2**30:,.1f} GiB, more than the {available / 2**30:,.1f} GiB of memory available here; lower num_envs or n_steps"
+        )

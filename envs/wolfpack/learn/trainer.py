@@ -42,7 +42,7 @@ import wolfpack
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
-from wolfpack.models import POLICY_FILE
+from wolfpack.models import POLICY_FILE, load_tensors
 from wolfpack.opponents import CONFIG_FILE, SIDES, Opponent, as_opponent, opponent_side
 
 TRAINER_FILE = "trainer.pt"
@@ -202,7 +202,10 @@ class Trainer:
                 side_by_side=side_by_side,
             )
         if state is not None:
-            self._restore(state)
+            try:
+                self._restore(state)
+            except (KeyError, RuntimeError, TypeError, ValueError) as e:  # another network's state
+                raise ValueError(f"--resume: {self._resume_path}: does not fit this run's networks ({' '.join(str(e).split())[:200]})") from None
         self.agents_per_step = sum(env.num_envs * sum(env.n_wolves if side == "wolves" else env.n_targets for side in spec.sides) for env in self.envs)
         self.evaluations: list[dict] = json.loads((self.out / "evaluations.json").read_text()) if resume and (self.out / "evaluations.json").is_file() else []
 
@@ -244,10 +247,13 @@ class Trainer:
 
     def _load_resume_state(self) -> dict | None:
         candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
-        states = [torch.load(p, map_location=self.device, weights_only=False) for p in candidates if p.is_file()]
+        # Tensors and plain containers only (the generator's state is a tensor): a file is
+        # never run as code, and a truncated or foreign one is a ValueError naming it.
+        states = [(p, _check_resume_state(p, load_tensors(p, map_location=self.device), self.spec.sides)) for p in candidates if p.is_file()]
         if not states:
             raise ValueError(f"--resume: {self.out} holds no {TRAINER_FILE} to resume from (the run never reached its first checkpoint)")
-        return max(states, key=lambda s: s["agent_steps"])
+        self._resume_path, state = max(states, key=lambda ps: ps[1]["agent_steps"])
+        return state
 
     def _restore(self, state: dict) -> None:
         for side, learner in self.learners.items():
@@ -564,6 +570,22 @@ def _entity_shape(side: str, params: dict) -> tuple[int, int, int] | None:
     """(own features, row size, state row size) of ``side``'s entity observation, or None."""
     shape = entity_shape(side, params)
     return (*shape, len(ENTITY_STATE_FIELDS)) if shape else None
+
+
+def _check_resume_state(path: Path, state: Any, sides: tuple[str, ...]) -> dict:
+    """``state`` if it is a resume state of these sides (what :meth:`Trainer._save` writes);
+    ValueError naming ``path`` and what is missing otherwise."""
+    counters = ("updates", "agent_steps", "resumes")
+    if not isinstance(state, dict):
+        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train'")
+    missing = [k for k in ("learners", "generator", *counters, "train_s") if k not in state]
+    if not missing:
+        missing = [f"learners.{side}" for side in sides if not isinstance(state["learners"], dict) or not isinstance(state["learners"].get(side), dict)]
+    if missing:
+        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train' (it lacks {', '.join(missing)})")
+    if not isinstance(state["generator"], torch.Tensor) or not all(isinstance(state[k], int) and not isinstance(state[k], bool) and state[k] >= 0 for k in counters):
+        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train' (its generator or counters are of another kind)")
+    return state
 
 
 def _write(path: Path, writer) -> None:
