@@ -51,6 +51,9 @@ def native_model_folders(where: str | Path) -> dict[str, Path]:
 
 #: The keys of a native model's ``network:`` (the actor's shape, :class:`wolfpack.learn.nets.Actor`).
 NETWORK_KEYS = ("obs_dim", "agents", "hidden", "activation", "log_std_init", "agent_id", "norm_obs")
+#: The same for a model over entity observations (``kind: entities``,
+#: :class:`wolfpack.learn.sets.EntityActor`).
+ENTITY_NETWORK_KEYS = ("kind", "self_dim", "row_size", "obs_dim", "hidden", "entity_width", "pool", "heads", "activation", "log_std_init", "norm_obs")
 
 
 def _read_config(folder: Path) -> dict:
@@ -68,10 +71,11 @@ def _read_config(folder: Path) -> dict:
     network = config.get("network")
     if not isinstance(network, dict):
         raise ValueError(f"{config_path}: no network: mapping (the actor's shape: {', '.join(NETWORK_KEYS)})")
-    missing = [k for k in NETWORK_KEYS if k not in network]
-    if missing or set(network) - set(NETWORK_KEYS):
-        wrong = f"lacks {', '.join(missing)}" if missing else f"has unknown keys {', '.join(sorted(set(network) - set(NETWORK_KEYS)))}"
-        raise ValueError(f"{config_path}: network: {wrong} (its keys are {', '.join(NETWORK_KEYS)})")
+    keys = ENTITY_NETWORK_KEYS if network.get("kind") == "entities" else NETWORK_KEYS
+    missing = [k for k in keys if k not in network]
+    if missing or set(network) - set(keys):
+        wrong = f"lacks {', '.join(missing)}" if missing else f"has unknown keys {', '.join(sorted(set(network) - set(keys)))}"
+        raise ValueError(f"{config_path}: network: {wrong} (its keys are {', '.join(keys)})")
     obs_dim = network["obs_dim"]
     if not isinstance(obs_dim, int) or isinstance(obs_dim, bool) or obs_dim < 1:
         raise ValueError(f"{config_path}: network.obs_dim must be an integer >= 1, got {obs_dim!r}")

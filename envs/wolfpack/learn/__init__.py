@@ -25,6 +25,9 @@ def train(
     timesteps=None,
     seed: int = 0,
     params=None,
+    task=None,
+    vary=None,
+    task_weights: str = "uniform",
     overrides=None,
     hp=None,
     opponent=None,
@@ -39,7 +42,9 @@ def train(
 ) -> dict:
     """Trains as ``wolfpack train`` does (``wolfpack train --help``) and returns the run's
     summary; ``overrides`` and ``hp`` are dicts of dotted keys; ``opponent`` is one driver or a
-    list of them (a pool, one drawn per rollout, the first evaluated)."""
+    list of them (a pool, one drawn per rollout, the first evaluated); ``task`` a task's name or
+    a list of them (``"all"``: the suite; several: one model over them, multi-task), ``vary``
+    ``{key: (lo, hi)}`` as ``--vary`` takes them."""
     from wolfpack.learn.cli import run_training
 
     return run_training(
@@ -50,6 +55,9 @@ def train(
         timesteps=timesteps,
         seed=seed,
         params=params,
+        task=task,
+        vary=dict(vary or {}),
+        task_weights=task_weights,
         overrides=overrides or {},
         hp=hp or {},
         opponent=opponent,
