@@ -53,7 +53,7 @@ def native_model_folders(where: str | Path) -> dict[str, Path]:
 NETWORK_KEYS = ("obs_dim", "agents", "hidden", "activation", "log_std_init", "agent_id", "norm_obs")
 #: The same for a model over entity observations (``kind: entities``,
 #: :class:`wolfpack.learn.sets.EntityActor`).
-ENTITY_NETWORK_KEYS = ("kind", "self_dim", "row_size", "obs_dim", "hidden", "entity_width", "pool", "heads", "activation", "log_std_init", "norm_obs")
+ENTITY_NETWORK_KEYS = ("kind", "self_dim", "row_size", "obs_dim", "hidden", "entity_width", "pool", "heads", "activation", "log_std_init", "norm_obs", "wall_rows")
 
 
 def _read_config(folder: Path) -> dict:
@@ -72,7 +72,7 @@ def _read_config(folder: Path) -> dict:
     if not isinstance(network, dict):
         raise ValueError(f"{config_path}: no network: mapping (the actor's shape: {', '.join(NETWORK_KEYS)})")
     keys = ENTITY_NETWORK_KEYS if network.get("kind") == "entities" else NETWORK_KEYS
-    missing = [k for k in keys if k not in network]
+    missing = [k for k in keys if k not in network and k != "wall_rows"]  # wall_rows: 0 when absent
     if missing or set(network) - set(keys):
         wrong = f"lacks {', '.join(missing)}" if missing else f"has unknown keys {', '.join(sorted(set(network) - set(keys)))}"
         raise ValueError(f"{config_path}: network: {wrong} (its keys are {', '.join(keys)})")

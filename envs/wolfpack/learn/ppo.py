@@ -24,6 +24,9 @@ from torch import nn
 from wolfpack.learn.nets import LOG_2PI, Critic, RunningNorm
 from wolfpack.learn.sets import EntityCritic, build_actor
 
+#: The wall rows that close every entity observation (the core's wall_rows block).
+WALL_ROWS = 4
+
 
 class Rollout:
     """The rollout buffers of one group of worlds (``num_envs`` worlds of ``agents`` agents of
@@ -108,9 +111,10 @@ class SideLearner:
                 activation=activation,
                 log_std_init=float(recipe["log_std_init"]),
                 norm_obs=norm_obs,
+                wall_rows=WALL_ROWS,
             )
             self.actor = build_actor(self.network).to(device)  # the actor first: the networks' initial draws in a fixed order
-            self.critic = EntityCritic(self_dim, row_size, state_dim if centralised else 0, state_row, hidden, width, pool, heads, activation, norm_obs).to(device)
+            self.critic = EntityCritic(self_dim, row_size, state_dim if centralised else 0, state_row, hidden, width, pool, heads, activation, norm_obs, WALL_ROWS).to(device)
         else:
             self.network = dict(
                 obs_dim=obs_dim, agents=self.agents, hidden=hidden, activation=activation, log_std_init=float(recipe["log_std_init"]), agent_id=bool(recipe["agent_id"]), norm_obs=norm_obs

@@ -16,6 +16,11 @@ Two poolings, chosen by the recipe's ``pool``:
 - ``mean_max``: the masked mean and the masked maximum of the row embeddings, concatenated
   (Deep Sets with two symmetric poolings).
 
+The four wall rows close every observation in a fixed order whatever the capacities, so the
+networks read them as own features (each wall's x, y and distance: ``wall_rows``), not as set
+elements: the set encoder's per-row work is most of an update's time, and the walls need no
+permutation invariance.
+
 Normalisation is per field, not per slot (:class:`EntityNorm`): the statistics of a row field
 are gathered over present rows only and shared by every row, so that they do not depend on
 which slot a row lands in or on how many slots there are.
@@ -87,14 +92,15 @@ class SetNet(nn.Module):
     ReLU every embedding is ≥ 0, so the masked maximum is the maximum of the masked
     embeddings (padding rows are 0)."""
 
-    def __init__(self, self_dim: int, row_size: int, width: int, hidden: list[int], out: int, activation: str, pool: str, heads: int, out_gain: float) -> None:
+    def __init__(self, self_dim: int, row_size: int, width: int, hidden: list[int], out: int, activation: str, pool: str, heads: int, out_gain: float, wall_rows: int = 0) -> None:
         super().__init__()
         if pool not in POOLS:
             raise ValueError(f"pool must be one of {', '.join(POOLS)}, got {pool!r}")
         if width % heads:
             raise ValueError(f"entity_width {width} must be a multiple of the {heads} attention heads")
         self.self_dim, self.row_size, self.width, self.pool, self.heads = self_dim, row_size, width, pool, heads
-        self.own = mlp([self_dim, width], "relu", 2**0.5)
+        self.walls = Walls(self_dim, row_size, wall_rows)
+        self.own = mlp([self.walls.own_dim, width], "relu", 2**0.5)
         self.encode = mlp([row_size, width], "relu", 2**0.5)
         pooled = width if pool == "attention" else 2 * width
         if pool == "attention":
@@ -107,9 +113,9 @@ class SetNet(nn.Module):
         """The features the head reads, [..., width + pooled]."""
         lead = x.shape[:-1]
         x = x.reshape(-1, x.shape[-1])
-        rows = x[:, self.self_dim :].reshape(x.shape[0], -1, self.row_size)  # [B, R, F]
+        own_in, rows = self.walls.split(x)  # [B, own], [B, R, F]
         mask = rows[:, :, :1]  # [B, R, 1]: 1 present, 0 padding
-        own = torch.relu(self.own(x[:, : self.self_dim]))
+        own = torch.relu(self.own(own_in))
         e = torch.relu(self.encode(rows)) * mask  # [B, R, W], padding rows 0
         if self.pool == "attention":
             pooled = self._attend(own, e, mask)
@@ -131,6 +137,30 @@ class SetNet(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.head(self.embed(x))
+
+
+class Walls:
+    """Reads the last ``rows`` rows of an entity observation (the walls) as own features: their
+    x, y and distance after the agent's own features. ``rows`` = 0 reads every row as a set
+    element."""
+
+    FIELDS = slice(5, 8)  # x, y, distance
+
+    def __init__(self, self_dim: int, row_size: int, rows: int) -> None:
+        self.self_dim, self.row_size, self.rows = self_dim, row_size, rows
+        self.own_dim = self_dim + rows * (self.FIELDS.stop - self.FIELDS.start)
+
+    def own(self, x: torch.Tensor) -> torch.Tensor:
+        """[..., D] → the own features [..., own_dim]."""
+        if not self.rows:
+            return x[..., : self.self_dim]
+        tail = x[..., x.shape[-1] - self.rows * self.row_size :].reshape(*x.shape[:-1], self.rows, self.row_size)
+        return torch.cat([x[..., : self.self_dim], tail[..., self.FIELDS].reshape(*x.shape[:-1], -1)], -1)
+
+    def split(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """[B, D] → (own features [B, own_dim], the set's rows [B, R, F])."""
+        rows = x[:, self.self_dim : x.shape[-1] - self.rows * self.row_size]
+        return self.own(x), rows.reshape(x.shape[0], -1, self.row_size)
 
 
 class EntityActor(nn.Module):
@@ -155,11 +185,12 @@ class EntityActor(nn.Module):
         norm_obs: bool,
         obs_dim: int | None = None,
         agents: int | None = None,
+        wall_rows: int = 0,
     ) -> None:
         super().__init__()
         self.self_dim, self.row_size, self.obs_dim, self.agents = self_dim, row_size, obs_dim, agents
         self.norm = EntityNorm(self_dim, row_size, enabled=norm_obs)
-        self.body = SetNet(self_dim, row_size, entity_width, hidden, 2, activation, pool, heads, 0.01)
+        self.body = SetNet(self_dim, row_size, entity_width, hidden, 2, activation, pool, heads, 0.01, wall_rows)
         self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
 
     def accepts(self, dim: int) -> bool:
@@ -195,18 +226,21 @@ class EntityCritic(nn.Module):
     and encoding each agent's rows again for the critic would double the update's largest
     cost for what the actor's rows add to the value (the obstacles near the agent)."""
 
-    def __init__(self, self_dim: int, row_size: int, state_dim: int, state_row: int, hidden: list[int], entity_width: int, pool: str, heads: int, activation: str, norm_obs: bool) -> None:
+    def __init__(
+        self, self_dim: int, row_size: int, state_dim: int, state_row: int, hidden: list[int], entity_width: int, pool: str, heads: int, activation: str, norm_obs: bool, wall_rows: int = 0
+    ) -> None:
         super().__init__()
         self.self_dim, self.state_dim, self.state_row = self_dim, state_dim, state_row
+        self.walls = Walls(self_dim, row_size, wall_rows)
         # The entity state's entries are already in [-1, 1] and its padding must stay zero.
         self.state_norm = RunningNorm(state_dim, enabled=False) if state_dim else None
         width = entity_width
         if state_dim:
-            self.own = mlp([self_dim, width], "relu", 2**0.5)
+            self.own = mlp([self.walls.own_dim, width], "relu", 2**0.5)
             self.state_rows = mlp([state_row, width], "relu", 2**0.5)
             self.body = mlp([3 * width + 1, *hidden, 1], activation, 1.0)
         else:
-            self.trunk = SetNet(self_dim, row_size, width, hidden, 1, activation, pool, heads, 1.0)
+            self.trunk = SetNet(self_dim, row_size, width, hidden, 1, activation, pool, heads, 1.0, wall_rows)
 
     def agent_inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
         return normed_obs
@@ -224,7 +258,7 @@ class EntityCritic(nn.Module):
     def value(self, agent_inputs: torch.Tensor, normed_state: torch.Tensor | None) -> torch.Tensor:
         if not self.state_dim:
             return self.trunk(agent_inputs).squeeze(-1)
-        own = torch.relu(self.own(agent_inputs[..., : self.self_dim]))  # [..., K, W]
+        own = torch.relu(self.own(self.walls.own(agent_inputs)))  # [..., K, W]
         world = self._state_features(normed_state).unsqueeze(-2).expand(*own.shape[:-1], -1)
         return self.body(torch.cat([own, world], -1)).squeeze(-1)
 
