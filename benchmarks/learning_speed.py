@@ -6,6 +6,8 @@ scenario (see BENCHMARKS.md, "Learning"):
 
 - **native**: ``wolfpack train --side SIDE --algo ALGO`` with its default recipe, or with the
   ``--hp KEY=VALUE`` changes given here (recorded in the JSON as ``native_hp``);
+- **native-entities**: the same with entity observations and the set network
+  (``--hp network=entities``, docs/learning.md "One model for every task");
 - **sb3**: ``training/train.py --side SIDE --algo ppo`` (SB3's PPO on ``make_vec_env``, the
   hyperparameters of ``training/hyperparams.yaml``).
 
@@ -21,6 +23,7 @@ Usage::
     python benchmarks/learning_speed.py --side wolves --minutes 15 --seeds 5              # 2 x 5 x 15 min
     python benchmarks/learning_speed.py --side wolves --minutes 2 --seeds 1 --json        # throughput only
     python benchmarks/learning_speed.py --trainers native --minutes 15 --seeds 5 --out benchmarks/results/learning-x.json
+    python benchmarks/learning_speed.py --trainers native native-entities --minutes 3 --seeds 1   # flat MLP against the set network
 
 Runs go one after another (never side by side: each has the machine to itself), seed by seed with
 the trainers in turn. On a machine with many cores, ``--parallel N`` runs N at once instead, each
@@ -47,7 +50,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peers import machine_info  # noqa: E402
 
 LEVELS = (0.80, 0.90, 0.95)
-TRAINERS = ("native", "sb3")
+TRAINERS = ("native", "native-entities", "sb3")
+#: The recipe changes each native trainer runs with (before the run's own --hp).
+NATIVE_HP = {"native": [], "native-entities": ["network=entities"]}
 
 
 #: Cores, batch threads and torch threads of each run under --parallel.
@@ -58,9 +63,9 @@ def command(trainer: str, args: argparse.Namespace, seed: int, out: Path, pinned
     """The command line of one run: ``trainer`` on ``args``' side and budget, training seed
     ``seed``, its folder ``out``; ``pinned``: two batch and two torch threads (``--parallel``)."""
     side, minutes, evaluations, eval_episodes = args.side, args.minutes, args.evaluations, args.eval_episodes
-    if trainer == "native":
+    if trainer in NATIVE_HP:
         threads = ["--threads", str(PINNED_CORES), "--torch-threads", str(PINNED_CORES)] if pinned else []
-        overrides = [part for hp in args.hp for part in ("--hp", hp)]
+        overrides = [part for hp in NATIVE_HP[trainer] + args.hp for part in ("--hp", hp)]
         return [
             sys.executable,
             "-m",
@@ -125,7 +130,7 @@ def skill(side: str, row: dict) -> float:
 def read_run(trainer: str, side: str, out: Path) -> dict:
     """(evaluation points [(train_s, agent_steps, skill, collision_rate)], agent-steps/s)."""
     evals = json.loads((out / "evaluations.json").read_text())
-    if trainer == "native":
+    if trainer in NATIVE_HP:
         points = [(e["train_s"], e["agent_steps"], skill(side, e[side]), e[side]["collision_rate"]) for e in evals]
         summary = json.loads((out / "summary.json").read_text())
         rate = summary["this_invocation"]["agent_steps_per_s"]
@@ -231,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--side", choices=("wolves", "targets"), default="wolves")
     p.add_argument("--algo", choices=("ippo", "mappo"), default="mappo", help="the native trainer's algorithm (default mappo)")
-    p.add_argument("--trainers", nargs="+", choices=TRAINERS, default=list(TRAINERS))
+    p.add_argument("--trainers", nargs="+", choices=TRAINERS, default=["native", "sb3"], help="default: native sb3")
     p.add_argument("--minutes", type=float, default=15.0, help="time limit of every run (default 15)")
     p.add_argument("--seeds", type=int, default=5, help="training seeds 0 .. N-1 (default 5)")
     p.add_argument("--first-seed", type=int, default=0)
@@ -269,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
         # Seed by seed, the trainers in turn: a machine whose speed drifts over the hour (a VM's
         # neighbours) weighs on both trainers alike.
         jobs = [(trainer, seed) for seed in seeds for trainer in args.trainers]
-        folders = {job: base / f"{job[0]}_{args.side}_{args.algo if job[0] == 'native' else 'ppo'}_s{job[1]}" for job in jobs}
+        folders = {job: base / f"{job[0]}_{args.side}_{args.algo if job[0] in NATIVE_HP else 'ppo'}_s{job[1]}" for job in jobs}
         failed = run_jobs(jobs, folders, args, cores)
         if failed:
             return failed
