@@ -5,6 +5,7 @@ generalisation track, and every bad input of these surfaces."""
 from __future__ import annotations
 
 import csv
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -175,3 +176,12 @@ def test_bad_multi_task_input_is_one_line_and_writes_nothing(tmp_path, args, mes
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], proc.stderr
     assert not out.exists()
+
+
+def test_imitation_warms_up_a_multi_task_pack_on_every_task(tmp_path):
+    summary = tiny(tmp_path / "imitated", ["hunt-v1", "small-pack-v1"], timesteps=1_000, imitate_min=0.02)
+    rounds = json.loads((tmp_path / "imitated" / "imitation.json").read_text())
+    assert rounds and rounds[0]["beta"] == 1.0 and rounds[0]["samples"]["wolves"] > 0
+    # Both tasks' worlds gave labels: 16 steps of 4 worlds of 5 wolves and 4 of 3.
+    assert rounds[0]["samples"]["wolves"] == 16 * (4 * 5 + 4 * 3)
+    assert summary["agent_steps"] >= 1_000

@@ -428,8 +428,6 @@ def run_training(
     if len(tasks) > 1 or vary:
         if params is not None:
             raise ValueError("--params and --task are exclusive: the tasks are the scenarios")
-        if imitate_min is not None:
-            raise ValueError("--imitate trains on one scenario: give one --task (or none) with it")
         groups, eval_tasks = world_groups(tasks, vary or {}, seed, lambda name, extra: resolve_params(None, {**overrides, **extra}, name))
         resolved = eval_tasks[0][1]
     else:

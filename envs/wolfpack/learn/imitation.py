@@ -21,6 +21,9 @@ import torch
 #: Samples kept per side (the newest), and the fit's settings: chosen so that a round's fit
 #: takes about as long as its rollout on 2 cores.
 CAPACITY = 1_000_000
+#: At most this many bytes of observations per side, too: a million entity observations (421
+#: entries each) would take 1.7 GB, longer to allocate than a short warm start lasts.
+CAPACITY_BYTES = 512 << 20
 LEARNING_RATE = 1e-3
 MINIBATCH = 4096
 FIT_PASSES = 2
@@ -43,40 +46,29 @@ class Dataset:
         n = o.shape[0]
         rows = (self.head + torch.arange(n)) % self.capacity
         self.obs[rows], self.actions[rows] = o, a
-        self.ids[rows] = torch.arange(n) % self.agents
+        self.ids[rows] = torch.arange(n) % max(self.agents, 1)
         self.head = (self.head + n) % self.capacity
         self.size = min(self.capacity, self.size + n)
 
 
 def imitate(trainer, minutes: float, clock, max_rounds: int | None = None) -> list[dict]:
-    """Runs DAgger rounds on ``trainer``'s batch for every learning side until ``minutes`` have
-    passed on ``clock`` (a function giving the run's training seconds so far), or after
-    ``max_rounds``. Returns one record per round: β, samples, loss, seconds."""
-    env, learners, gen = trainer.env, trainer.learners, trainer.generator
+    """Runs DAgger rounds on ``trainer``'s batches (one per task in multi-task training, each
+    with its task's law) for every learning side until ``minutes`` have passed on ``clock`` (a
+    function giving the run's training seconds so far), or after ``max_rounds``. Returns one
+    record per round: β, samples, loss, seconds."""
+    learners, gen = trainer.learners, trainer.generator
     deadline = clock() + 60.0 * minutes
-    data = {side: Dataset(learner.actor.obs_dim, learner.agents, CAPACITY) for side, learner in learners.items()}
+    data = {side: Dataset(learner.actor.obs_dim, learner.agents, min(CAPACITY, CAPACITY_BYTES // (4 * learner.actor.obs_dim))) for side, learner in learners.items()}
     optimisers = {side: torch.optim.Adam(learner.actor.body.parameters(), lr=LEARNING_RATE) for side, learner in learners.items()}
     rng = np.random.default_rng(trainer.spec.seed)
-    out = env.reset()
+    outs = [env.reset() for env in trainer.envs]
     history = []
     r = 0
     while clock() < deadline and (max_rounds is None or r < max_rounds):
         beta = 1.0 if r == 0 else 0.5**r
         for _ in range(trainer.n_steps):
-            experts = dict(zip(("wolves", "targets"), env.expert_actions()))
-            actions = {}
-            for side, learner in learners.items():
-                obs = out[f"obs_{side}"]
-                expert = experts[side]
-                data[side].add(obs, expert)
-                learner.actor.norm.accumulate(torch.from_numpy(obs))
-                if beta >= 1.0:
-                    actions[side] = np.ascontiguousarray(expert, dtype=np.float32)
-                else:
-                    own = learner.policy()(obs)
-                    use_expert = rng.random(expert.shape[:-1]) < beta
-                    actions[side] = np.ascontiguousarray(np.where(use_expert[..., None], expert, own), dtype=np.float32)
-            out = env.step(actions.get("wolves"), actions.get("targets"))
+            for g, env in enumerate(trainer.envs):
+                outs[g] = _dagger_step(env, outs[g], learners, data, beta, rng)
         losses = {}
         for side, learner in learners.items():
             learner.actor.norm.commit()
@@ -86,13 +78,33 @@ def imitate(trainer, minutes: float, clock, max_rounds: int | None = None) -> li
     return history
 
 
+def _dagger_step(env, out: dict, learners: dict, data: dict, beta: float, rng: np.random.Generator) -> dict:
+    """One step of a DAgger round on ``env`` from its outputs ``out``: the law's labels into
+    ``data``, each agent driven by the law with probability ``beta``, else by the policy's mean.
+    Returns the step's outputs."""
+    experts = dict(zip(("wolves", "targets"), env.expert_actions()))
+    actions = {}
+    for side, learner in learners.items():
+        obs = out[f"obs_{side}"]
+        expert = experts[side]
+        data[side].add(obs, expert)
+        learner.actor.norm.accumulate(torch.from_numpy(obs))
+        if beta >= 1.0:
+            actions[side] = np.ascontiguousarray(expert, dtype=np.float32)
+        else:
+            own = learner.policy()(obs)
+            use_expert = rng.random(expert.shape[:-1]) < beta
+            actions[side] = np.ascontiguousarray(np.where(use_expert[..., None], expert, own), dtype=np.float32)
+    return env.step(actions.get("wolves"), actions.get("targets"))
+
+
 def _fit(actor, data: Dataset, optimiser, gen: torch.Generator, deadline: float, clock) -> float:
     """The actor's mean fitted to the law's actions (mean squared error) by random minibatches:
     FIT_PASSES passes' worth of them over the data set, and at least MIN_FIT_STEPS (stopping
     at the deadline). Returns the mean loss of the last pass's worth of steps."""
     n = data.size
     device = next(actor.parameters()).device
-    eye = torch.eye(actor.agents)
+    eye = torch.eye(actor.agents) if actor.agent_id else None
     batch = min(MINIBATCH, n)
     steps = max(MIN_FIT_STEPS, FIT_PASSES * n // batch)
     recent = max(1, steps // FIT_PASSES)
