@@ -152,7 +152,7 @@ def test_benchmark_writes_a_scorecard_json_markdown_and_figure(tmp_path):
         (["--wolves", "seed000", "--targets", "escape"], "not allowed with argument"),
         ([], "one of the arguments --wolves --targets is required"),
         (["--wolves", "no/such/model"], "no/such/model"),
-        (["--wolves", "bvc", "--tasks", "hunt-v7"], "invalid choice: 'hunt-v7'"),
+        (["--wolves", "bvc", "--tasks", "hunt-v7"], "unknown task 'hunt-v7'"),
         (["--wolves", "bvc", "--episodes", "0"], "--episodes"),
         (["--wolves", "bvc", "--set", "capture.distanc=1.0"], "capture.distanc"),
         (["--wolves", "bvc", "--set", "world.wolves=-3"], "world.wolves: must be an integer"),
