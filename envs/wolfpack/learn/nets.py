@@ -100,20 +100,19 @@ def with_agent_id(x: torch.Tensor, agents: int) -> torch.Tensor:
     return torch.cat([flat, ids], dim=1).reshape(*x.shape[:-1], x.shape[-1] + agents)
 
 
-class Actor(nn.Module):
-    """The policy of one side: normalised observation (⊕ one-hot agent id) → the mean of a
-    Gaussian over the two action entries; ``log_std`` is a free parameter."""
+class GaussianActor(nn.Module):
+    """What every actor shares: ``body`` maps the network's inputs (:meth:`inputs` of the
+    normalised observation) to the mean of a Gaussian over the two action entries, whose log
+    standard deviation ``log_std`` is a free parameter; ``norm`` normalises raw observations.
+    Subclasses build the three."""
 
-    def __init__(self, obs_dim: int, agents: int, hidden: list[int], activation: str, log_std_init: float, agent_id: bool, norm_obs: bool) -> None:
-        super().__init__()
-        self.obs_dim, self.agents, self.agent_id = obs_dim, agents, agent_id
-        self.norm = RunningNorm(obs_dim, enabled=norm_obs)
-        self.body = mlp([obs_dim + (agents if agent_id else 0), *hidden, 2], activation, 0.01)
-        self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
+    norm: nn.Module
+    body: nn.Module
+    log_std: nn.Parameter
 
     def inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
         """The network's input for already normalised observations [..., D]."""
-        return with_agent_id(normed_obs, self.agents) if self.agent_id else normed_obs
+        return normed_obs
 
     def mean(self, normed_obs: torch.Tensor) -> torch.Tensor:
         """The Gaussian's mean for already normalised observations [..., D]."""
@@ -131,6 +130,22 @@ class Actor(nn.Module):
 
     def entropy(self) -> torch.Tensor:
         return (self.log_std + 0.5 * (1.0 + LOG_2PI)).sum()
+
+
+class Actor(GaussianActor):
+    """The policy of one side over the flat observation: normalised observation (⊕ one-hot
+    agent id) → an MLP → the Gaussian's mean."""
+
+    def __init__(self, obs_dim: int, agents: int, hidden: list[int], activation: str, log_std_init: float, agent_id: bool, norm_obs: bool) -> None:
+        super().__init__()
+        self.obs_dim, self.agents, self.agent_id = obs_dim, agents, agent_id
+        self.norm = RunningNorm(obs_dim, enabled=norm_obs)
+        self.body = mlp([obs_dim + (agents if agent_id else 0), *hidden, 2], activation, 0.01)
+        self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
+
+    def inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
+        """The network's input for already normalised observations [..., D]."""
+        return with_agent_id(normed_obs, self.agents) if self.agent_id else normed_obs
 
 
 class Critic(nn.Module):

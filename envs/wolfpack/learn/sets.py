@@ -31,7 +31,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from wolfpack.learn.nets import LOG_2PI, Actor, RunningNorm, mlp
+from wolfpack.learn.nets import Actor, GaussianActor, RunningNorm, mlp
 from wolfpack.learn.recipes import POOLS
 
 #: Fields 0..MASKED-1 of a row (the mask and the type) pass through normalisation unchanged.
@@ -173,13 +173,10 @@ class Walls:
         return self.own(x), rows.reshape(x.shape[0], -1, self.row_size)
 
 
-class EntityActor(nn.Module):
-    """The policy of one side over entity observations: the same interface as
-    :class:`wolfpack.learn.nets.Actor` (``norm``, ``inputs``, ``body``, ``mean``,
-    ``deterministic``, ``log_prob``, ``entropy``), with a :class:`SetNet` as its body. It has
-    no agent id: one model plays any team size."""
+class EntityActor(GaussianActor):
+    """The policy of one side over entity observations: a :class:`SetNet` as its body and an
+    :class:`EntityNorm`. It has no agent id: one model plays any team size."""
 
-    kind = "entities"
     agent_id = False
 
     def __init__(
@@ -206,23 +203,6 @@ class EntityActor(nn.Module):
     def accepts(self, dim: int) -> bool:
         """Whether observations of ``dim`` entries fit: the same own features and whole rows."""
         return dim > self.self_dim and (dim - self.self_dim) % self.row_size == 0
-
-    def inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
-        return normed_obs
-
-    def mean(self, normed_obs: torch.Tensor) -> torch.Tensor:
-        return self.body(normed_obs)
-
-    @torch.no_grad()
-    def deterministic(self, obs: torch.Tensor) -> torch.Tensor:
-        return self.mean(self.norm(obs)).clamp(-1.0, 1.0)
-
-    def log_prob(self, mean: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        z = (actions - mean) * torch.exp(-self.log_std)
-        return -(0.5 * z * z + self.log_std + 0.5 * LOG_2PI).sum(-1)
-
-    def entropy(self) -> torch.Tensor:
-        return (self.log_std + 0.5 * (1.0 + LOG_2PI)).sum()
 
 
 class EntityCritic(nn.Module):
