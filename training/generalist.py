@@ -89,8 +89,9 @@ def curves(out: Path, runs: list[Path]) -> None:
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right", ncol=2)
-    spread = "median of the seeds, range shaded" if len(runs) > 1 else "one training seed"
-    ax.set_title(f"One pack for every task: held-out capture per task during training ({len(runs)} seed{'s' if len(runs) > 1 else ''}; {spread})", fontsize=10)
+    episodes = {len(ev) and ev[0]["tasks"][tasks[0]]["wolves"]["episodes"] for ev in evals}
+    spread = f"{len(runs)} training seeds: the median, the range shaded" if len(runs) > 1 else "one training seed"
+    ax.set_title(f"One pack for every task: held-out capture per task during training\n({spread}; {'/'.join(map(str, sorted(episodes)))} episodes per task and point)", fontsize=10)
     fig.savefig(out / "curves.png", dpi=120)
     plt.close(fig)
 
