@@ -70,6 +70,8 @@ def test_the_entity_normaliser_counts_present_rows_only_and_keeps_padding_zero()
     assert float(norm.rows.mean[0]) == pytest.approx(3.0), "the padding rows' zeros are not counted"
     y = norm(x).reshape(8, -1)[:, 3:].reshape(8, 4, F)
     assert (y[:, 2:] == 0).all() and (y[:, :, :5] == x[:, 3:].reshape(8, 4, F)[:, :, :5]).all()
+    # The present rows' field 5 (2 and 4: mean 3, variance 1) is standardised in place.
+    torch.testing.assert_close(y[0, :2, 5], torch.tensor([-1.0, 1.0]), rtol=0, atol=1e-4)
 
 
 @pytest.fixture(scope="module")

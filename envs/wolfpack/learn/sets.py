@@ -51,8 +51,10 @@ class EntityNorm(nn.Module):
         self.rows = RunningNorm(row_size - MASKED, enabled=enabled)
 
     def _split(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Views of ``x``'s own features and rows (``view``, never a copy: :meth:`normalise_`
+        writes through them)."""
         rows = x[..., self.self_dim :]
-        return x[..., : self.self_dim], rows.reshape(*x.shape[:-1], rows.shape[-1] // self.row_size, self.row_size)
+        return x[..., : self.self_dim], rows.view(*x.shape[:-1], rows.shape[-1] // self.row_size, self.row_size)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.normalise_(x.clone()) if self.enabled else x
