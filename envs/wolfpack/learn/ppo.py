@@ -21,11 +21,12 @@ import numpy as np
 import torch
 from torch import nn
 
+from wolfpack import _core
 from wolfpack.learn.nets import LOG_2PI, Critic, RunningNorm
 from wolfpack.learn.sets import EntityCritic, build_actor
 
 #: The wall rows that close every entity observation (the core's wall_rows block).
-WALL_ROWS = 4
+WALL_ROWS = int(_core.ENTITY_WALLS)
 
 
 class Rollout:

@@ -715,6 +715,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ENTITY_FIELDS", PyTuple::new(py, wolfpack_core::observe::ENTITY_FIELDS)?)?;
     m.add("ENTITY_STATE_FIELDS", PyTuple::new(py, wolfpack_core::state::ENTITY_STATE_FIELDS)?)?;
     m.add("ENTITY_SCALE", wolfpack_core::observe::ENTITY_SCALE)?;
+    m.add("ENTITY_WALLS", wolfpack_core::observe::ENTITY_WALLS)?;
     m.add("LEARNERS", PyTuple::new(py, Learners::ALL.map(Learners::as_str))?)?;
     // The renderer's colours, for the legends and figures drawn in Python.
     m.add("WOLF_COLOURS", PyTuple::new(py, wolfpack_core::render::WOLF_COLOURS.map(|c| PyTuple::new(py, c)).into_iter().collect::<PyResult<Vec<_>>>()?)?)?;

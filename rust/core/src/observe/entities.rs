@@ -55,6 +55,10 @@ pub const ROW: usize = FIELDS.len();
 /// Metres per unit of the rows' positions, distances and extents.
 pub const SCALE: f64 = 10.0;
 
+/// Wall rows: the arena's four walls close every entity observation, in the order x_min,
+/// x_max, y_min, y_max.
+pub const WALLS: usize = 4;
+
 const WOLF: usize = 1;
 const TARGET: usize = 2;
 const OBSTACLE: usize = 3;
@@ -70,9 +74,9 @@ pub fn side_uses_entities(p: &Params, side: &str) -> bool {
 pub fn capacities(p: &Params, side: &str) -> (usize, usize, usize, usize) {
     let e = &p.env.entities;
     if side == "wolves" {
-        (e.max_wolves - 1, e.max_targets, e.max_obstacles, 4)
+        (e.max_wolves - 1, e.max_targets, e.max_obstacles, WALLS)
     } else {
-        (e.max_wolves, e.max_targets - 1, e.max_obstacles, 4)
+        (e.max_wolves, e.max_targets - 1, e.max_obstacles, WALLS)
     }
 }
 
@@ -244,7 +248,8 @@ impl super::Observer {
 /// The four walls' nearest points: x_min, x_max, y_min, y_max.
 fn wall_rows(p: &Params, from: Vec2, rows: &mut RowWriter<'_>) {
     let [x0, y0, x1, y1] = p.world.border;
-    for foot in [Vec2::new(x0, from.y), Vec2::new(x1, from.y), Vec2::new(from.x, y0), Vec2::new(from.x, y1)] {
+    let feet: [Vec2; WALLS] = [Vec2::new(x0, from.y), Vec2::new(x1, from.y), Vec2::new(from.x, y0), Vec2::new(from.x, y1)];
+    for foot in feet {
         rows.put(WALL, foot - from, [0.0; ROW - 8]);
     }
 }

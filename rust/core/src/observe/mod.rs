@@ -29,7 +29,7 @@
 
 mod entities;
 
-pub use entities::{capacities as entity_capacities, side_uses_entities, FIELDS as ENTITY_FIELDS, ROW as ENTITY_ROW, SCALE as ENTITY_SCALE};
+pub use entities::{capacities as entity_capacities, side_uses_entities, FIELDS as ENTITY_FIELDS, ROW as ENTITY_ROW, SCALE as ENTITY_SCALE, WALLS as ENTITY_WALLS};
 
 use crate::config::Params;
 use crate::math::{cross, Vec2};
