@@ -119,6 +119,10 @@ pub struct BatchEnv {
     /// Whether outputs carry [`StepOutput::state`] and, on autoreset steps,
     /// [`StepOutput::final_state`].
     with_state: bool,
+    /// The wolves' and the targets' observation sizes: fixed with the params' layout, which
+    /// [`BatchEnv::set_drivers`] cannot change, and read by every step's buffer check (the
+    /// layout they come from is a list built per call).
+    obs_dims: (usize, usize),
 }
 
 impl BatchEnv {
@@ -154,7 +158,8 @@ impl BatchEnv {
             t => Some(Crew::new(t - 1).map_err(|e| Error::Invalid(format!("cannot start {t} threads: {e}")))?),
         };
         let params = Arc::new(params);
-        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false, with_state: false };
+        let obs_dims = (wolf_dim(&params), target_dim(&params));
+        let mut env = Self { params, learners, autoreset, slots: Vec::new(), crew, track_laws: false, with_state: false, obs_dims };
         let participants = env.participants();
         let g = |i: usize| if stop.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { env_slot(&env.params, seed.wrapping_add(i as u64), 0, None) };
         let worlds: Vec<Result<Slot>> = share(env.crew.as_mut(), participants, (0..num_envs).collect(), MAX_CHUNK, g);
@@ -211,10 +216,10 @@ impl BatchEnv {
         self.params.world.targets
     }
     pub fn wolf_obs_dim(&self) -> usize {
-        wolf_dim(&self.params)
+        self.obs_dims.0
     }
     pub fn target_obs_dim(&self) -> usize {
-        target_dim(&self.params)
+        self.obs_dims.1
     }
     /// World `e`, with every polygon's vertices at its current pose (the batch places only
     /// the polygons its agents can reach or see while stepping; this places the rest).
