@@ -8,7 +8,7 @@ use super::output::{write_infos, SlotOut};
 use super::Learners;
 use crate::config::Params;
 use crate::error::Result;
-use crate::observe::{side_uses_entities, Observer};
+use crate::observe::Observer;
 use crate::policies::Command;
 use crate::reward::RewardState;
 use crate::world::{Layout, Outcome, World};
@@ -116,8 +116,7 @@ pub(super) fn write_obs(s: &mut Slot, obs_w: &mut [f32], obs_t: &mut [f32]) {
     // avoid).
     let env = &s.world.params.env;
     let lidar = if env.lidar.rays > 0 { env.lidar.range } else { 0.0 };
-    let p = &*s.world.params;
-    let entities = if side_uses_entities(p, "wolves") || side_uses_entities(p, "targets") { env.entities.range } else { 0.0 };
+    let entities = if env.observes_entities() { env.entities.range } else { 0.0 };
     let range = lidar.max(entities);
     if range > 0.0 {
         s.world.place_for_lidar(!obs_w.is_empty(), !obs_t.is_empty(), range);

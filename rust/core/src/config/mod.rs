@@ -341,15 +341,6 @@ pub enum ObservationKind {
     Entities,
 }
 
-impl ObservationKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Flat => "flat",
-            Self::Entities => "entities",
-        }
-    }
-}
-
 /// The capacities and reach of entity observations (`env.observation: entities`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -441,9 +432,14 @@ impl EnvParams {
         self.target_observation.unwrap_or(self.observation)
     }
 
+    /// Whether either side observes entity rows.
+    pub fn observes_entities(&self) -> bool {
+        [self.wolf_observation_kind(), self.target_observation_kind()].contains(&ObservationKind::Entities)
+    }
+
     /// Whether any observation or the state uses entity rows (the capacities then bind).
     pub fn uses_entities(&self) -> bool {
-        [self.wolf_observation_kind(), self.target_observation_kind(), self.state].contains(&ObservationKind::Entities)
+        self.observes_entities() || self.state == ObservationKind::Entities
     }
 }
 
@@ -614,8 +610,7 @@ impl Params {
                 return Err(bad("env.entities.max_targets", format!("{} is below world.targets = {}: the entity rows cannot hold every target", e.max_targets, w.targets)));
             }
         }
-        let entity_side = [self.env.wolf_observation_kind(), self.env.target_observation_kind()].contains(&ObservationKind::Entities);
-        if self.env.interaction_row && entity_side {
+        if self.env.interaction_row && self.env.observes_entities() {
             // The interaction row has N + M entries: it would tie an entity observation's size
             // to the team sizes again.
             return Err(bad("env.interaction_row", "is not available with entity observations (its size follows the team sizes)"));
