@@ -23,7 +23,6 @@
 //! (white noise), so an obstacle row says whether it moves, not how.
 
 use crate::config::{ObservationKind, Params};
-use crate::geometry::{polygon_closest_point, polygon_contains};
 use crate::math::Vec2;
 use crate::world::{AgentState, World};
 
@@ -214,22 +213,10 @@ impl super::Observer {
         let near = &mut self.entities.near;
         near.clear();
         for (k, ob) in w.obstacles.iter().enumerate() {
-            let to = ob.center - from;
-            let dc = to.norm();
-            if dc - ob.radius > range {
+            if (ob.center - from).norm() - ob.radius > range {
                 continue; // the bounding disc is out of range, so is the shape
             }
-            let (point, d) = if ob.is_polygon() {
-                if polygon_contains(&ob.vertices, from) {
-                    (from, 0.0)
-                } else {
-                    polygon_closest_point(&ob.vertices, from)
-                }
-            } else if dc <= ob.radius {
-                (from, 0.0)
-            } else {
-                (from + to * ((dc - ob.radius) / dc), dc - ob.radius)
-            };
+            let (point, d) = ob.nearest_point(from);
             if d <= range {
                 near.push((d, k, point));
             }

@@ -141,6 +141,26 @@ impl Obstacle {
         }
     }
 
+    /// The point of the obstacle's surface nearest `p` and its distance ([`Obstacle::distance`]
+    /// with the point; `p` itself and 0 from inside). The polygon's vertices must be placed.
+    pub fn nearest_point(&self, p: Vec2) -> (Vec2, f64) {
+        if self.is_polygon() {
+            if geometry::polygon_contains(&self.vertices, p) {
+                (p, 0.0)
+            } else {
+                geometry::polygon_closest_point(&self.vertices, p)
+            }
+        } else {
+            let to = self.center - p;
+            let dc = to.norm();
+            if dc <= self.radius {
+                (p, 0.0)
+            } else {
+                (p + to * ((dc - self.radius) / dc), dc - self.radius)
+            }
+        }
+    }
+
     /// The avoidance item this obstacle makes for an agent at `p` (SPEC §4), if it is within
     /// `range` (surface distance). Circles: ψ towards the centre, Δ = asin(R/(d+R)) (the
     /// exact tangent cone); polygons: the tangent rays of the part within `range`.
