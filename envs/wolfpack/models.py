@@ -208,8 +208,7 @@ class NativePolicy(SavedPolicy):
         self.actor.eval()
 
     def accepts(self, dim: int) -> bool:
-        accepts = getattr(self.actor, "accepts", None)
-        return accepts(dim) if accepts is not None else dim == self.obs_dim
+        return self.actor.accepts(dim)
 
     def _act(self, x: np.ndarray, deterministic: bool, rng: np.random.Generator | None) -> np.ndarray:
         """The clipped mean, or a draw mean + σ·ε (ε from ``rng``, default a fresh unseeded

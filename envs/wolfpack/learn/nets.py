@@ -109,6 +109,11 @@ class GaussianActor(nn.Module):
     norm: nn.Module
     body: nn.Module
     log_std: nn.Parameter
+    obs_dim: int | None
+
+    def accepts(self, dim: int) -> bool:
+        """Whether observations of ``dim`` entries fit: the size it was built for."""
+        return dim == self.obs_dim
 
     def inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
         """The network's input for already normalised observations [..., D]."""
