@@ -46,7 +46,7 @@ class Dataset:
         n = o.shape[0]
         rows = (self.head + torch.arange(n)) % self.capacity
         self.obs[rows], self.actions[rows] = o, a
-        self.ids[rows] = torch.arange(n) % max(self.agents, 1)
+        self.ids[rows] = torch.arange(n) % self.agents
         self.head = (self.head + n) % self.capacity
         self.size = min(self.capacity, self.size + n)
 

@@ -89,7 +89,9 @@ class SideLearner:
         self.side, self.algo, self.recipe, self.device, self.gen = side, algo, recipe, device, generator
         groups = list(groups) if groups else [(num_envs, agents)]
         self.n_steps = int(recipe["n_steps"])
-        self.num_envs, self.agents = groups[0]
+        # The first group's team size: what a flat actor with agent ids is built for (every
+        # group's, as checked below).
+        self.agents = groups[0][1]
         if recipe["network"] != "entities" and bool(recipe["agent_id"]) and len({k for _, k in groups}) > 1:
             raise ValueError(f"agent_id: the {side}' teams differ in size between the tasks; a one-hot agent id needs one team size (use network: entities)")
         centralised = algo == "mappo"
