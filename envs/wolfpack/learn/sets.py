@@ -93,6 +93,12 @@ def row_encoder(row_size: int, width: int) -> nn.Linear:
     return layer
 
 
+def mean_max(e: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """The masked mean and maximum over rows of embeddings ``e`` [B, R, W] (≥ 0, padding rows
+    0, as :func:`row_encoder` and a ReLU make them) with ``mask`` [B, R, 1]: [B, 2W]."""
+    return torch.cat([e.sum(1) / mask.sum(1).clamp(min=1.0), e.amax(1)], -1)
+
+
 class SetNet(nn.Module):
     """Entity observation [..., D] (normalised) → [..., out]: own features and pooled rows,
     then an MLP of widths ``hidden``. ``out_gain`` is the last layer's initial gain.
@@ -131,7 +137,7 @@ class SetNet(nn.Module):
         if self.pool == "attention":
             pooled = self._attend(own, e, mask)
         else:
-            pooled = torch.cat([e.sum(1) / mask.sum(1).clamp(min=1.0), e.amax(1)], -1)
+            pooled = mean_max(e, mask)
         return torch.cat([own, pooled], -1).reshape(*lead, -1)
 
     def _attend(self, own: torch.Tensor, e: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -243,7 +249,7 @@ class EntityCritic(nn.Module):
         rows = flat[:, :-1].reshape(flat.shape[0], -1, self.state_row)
         mask = rows[:, :, :1]
         e = torch.relu(self.state_rows(rows))
-        pooled = torch.cat([e.sum(1) / mask.sum(1).clamp(min=1.0), e.amax(1), flat[:, -1:]], -1)
+        pooled = torch.cat([mean_max(e, mask), flat[:, -1:]], -1)
         return pooled.reshape(*lead, -1)
 
     def value(self, agent_inputs: torch.Tensor, normed_state: torch.Tensor | None) -> torch.Tensor:
