@@ -40,7 +40,8 @@ from typing import Any, Callable, Mapping, Sequence
 
 from wolfpack.batch import ObservationSizeError
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
-from wolfpack.opponents import SCRIPTED_LAWS, SIDES, Opponent
+from wolfpack.generalisation import VARIATION_ORDER, check_variation, variation_params
+from wolfpack.opponents import SIDES, Opponent
 from wolfpack.task import TASK_ORDER, check_task, outcome_changes, task_params
 
 #: The committed baselines: the analytic laws, and the learners' IQMs over training seeds.
@@ -198,29 +199,27 @@ def generalisation_scorecard(
     ranked against the side's scripted laws played on the same episodes of the same variation
     (``progress`` counts the laws' episodes too). The same scorecard format, with
     ``track: generalisation``."""
-    from wolfpack.generalisation import VARIATION_ORDER, check_variation, variation_params
-
     overrides = dict(overrides or {})
     driver = as_policy(policy, side)
     names = list(VARIATION_ORDER if variations is None else variations)
     if not names:
         raise ValueError("no variations to play")
     worlds = {name: variation_params(check_variation(name), overrides) for name in names}  # bad keys fail before any episode
-    laws = [law for law in SCRIPTED_LAWS[side] if law in TRACK_LAWS[side]]
+    laws = track_rivals(driver, side)
     rows: dict[str, dict] = {}
     for name, params in worlds.items():
         row = score_task(driver, side, name, episodes=episodes, seed=seed, threads=threads, progress=progress, params=params)
-        theirs = {}
-        for law in laws:
-            if law == driver.law:
-                continue
-            theirs[law] = score_task(as_policy(law, side), side, name, episodes=episodes, seed=seed, threads=threads, progress=progress, params=params)["score"]
-        if "score" in row:
-            row["baselines"] = theirs
-            row["rank"] = rank(row["score"], list(theirs.values())) if theirs else None
-            row["ranked_among"] = len(theirs) + 1 if theirs else None
+        if "score" not in row:  # a variation the policy cannot play: no laws to rank it among
+            if progress is not None:
+                progress(episodes * len(laws))
+            rows[name] = row
+            continue
+        theirs = {law: score_task(as_policy(law, side), side, name, episodes=episodes, seed=seed, threads=threads, progress=progress, params=params)["score"] for law in laws}
+        row["baselines"] = theirs
+        row["rank"] = rank(row["score"], list(theirs.values())) if theirs else None
+        row["ranked_among"] = len(theirs) + 1 if theirs else None
         rows[name] = row
-    card = _card(driver, side, rows, episodes, seed, overrides, "the laws on the same episodes", {law: "law" for law in laws})
+    card = _card(driver, side, rows, episodes, seed, overrides, "the laws on the same episodes", {law: "law" for law in TRACK_LAWS[side]})
     card["track"] = "generalisation"
     return card
 
@@ -228,6 +227,11 @@ def generalisation_scorecard(
 #: The laws each side is ranked against on the generalisation track: the pursuit laws, and the
 #: one target law that evades (random and still are not opponents worth a rank).
 TRACK_LAWS = {"wolves": ("seed000", "bvc", "formation"), "targets": ("escape",)}
+
+
+def track_rivals(driver: Opponent, side: str) -> list[str]:
+    """The laws ``driver`` is ranked among on the generalisation track (itself left out)."""
+    return [law for law in TRACK_LAWS[side] if law != driver.law]
 
 
 def _card(driver: Opponent, side: str, rows: dict[str, dict], episodes: int, seed: int, overrides: dict, ranked_against: str | None, baseline_kinds: dict) -> dict:

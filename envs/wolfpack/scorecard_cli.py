@@ -104,7 +104,7 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     overrides = dict(config.parse_override(text) for text in args.overrides)
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
     # The generalisation track plays the side's laws too, on the same episodes.
-    players = 1 + (len(scorecard.TRACK_LAWS[side]) if args.track == "generalisation" else 0)
+    players = 1 + (len(scorecard.track_rivals(driver, side)) if args.track == "generalisation" else 0)
     with tqdm(total=args.episodes * len(tasks) * players, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
         card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides, track=args.track)
     card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
