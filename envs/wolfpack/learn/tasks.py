@@ -64,21 +64,28 @@ def _leaf(params: Mapping[str, Any], key: str) -> Any:
     return node
 
 
+def drawable_range(params: Mapping[str, Any], key: str, lo: float, hi: float) -> tuple[float, float] | tuple[int, int]:
+    """The values ``key`` can be drawn between in [LO, HI]: the range itself, or for an integer
+    key the integers in it (ValueError naming a key that is not a number, or an integer key
+    with no integer in range)."""
+    current = _leaf(params, key)
+    if isinstance(current, bool) or not isinstance(current, (int, float)):
+        raise ValueError(f"--vary {key}: not a numeric key (it is {current!r})")
+    if isinstance(current, int):
+        ilo, ihi = int(np.ceil(lo)), int(np.floor(hi))
+        if ilo > ihi:
+            raise ValueError(f"--vary {key}: an integer key, and no integer lies in [{lo:g}, {hi:g}]")
+        return ilo, ihi
+    return lo, hi
+
+
 def vary_values(params: Mapping[str, Any], vary: Mapping[str, tuple[float, float]], rng: np.random.Generator) -> dict[str, Any]:
-    """One draw of every varied key: uniform in [LO, HI], an integer for an integer key
-    (ValueError naming a key that is not a number, or an integer key with no integer in range)."""
+    """One draw of every varied key within its :func:`drawable_range`: uniform, an integer for
+    an integer key."""
     drawn: dict[str, Any] = {}
     for key, (lo, hi) in vary.items():
-        current = _leaf(params, key)
-        if isinstance(current, bool) or not isinstance(current, (int, float)):
-            raise ValueError(f"--vary {key}: not a numeric key (it is {current!r})")
-        if isinstance(current, int):
-            ilo, ihi = int(np.ceil(lo)), int(np.floor(hi))
-            if ilo > ihi:
-                raise ValueError(f"--vary {key}: an integer key, and no integer lies in [{lo:g}, {hi:g}]")
-            drawn[key] = int(rng.integers(ilo, ihi + 1))
-        else:
-            drawn[key] = float(rng.uniform(lo, hi))
+        a, b = drawable_range(params, key, lo, hi)
+        drawn[key] = int(rng.integers(a, b + 1)) if isinstance(a, int) else float(rng.uniform(a, b))
     return drawn
 
 
@@ -96,9 +103,8 @@ def world_groups(tasks: Sequence[str], vary: Mapping[str, tuple[float, float]], 
             groups.append((task, task, params))
             continue
         for key, (lo, hi) in vary.items():  # each end of each range is a valid value on its own
-            integer = isinstance(_leaf(params, key), int) and not isinstance(_leaf(params, key), bool)
-            for end in (lo, hi):
-                resolve(task, {key: int(round(end)) if integer else end})
+            for end in drawable_range(params, key, lo, hi):
+                resolve(task, {key: end})
         for v in range(VARIANTS):
             groups.append((f"{task}#{v}", task, resolve(task, vary_values(params, vary, rng))))
     return groups, eval_tasks
