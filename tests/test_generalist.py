@@ -17,7 +17,7 @@ torch = pytest.importorskip("torch")
 
 import wolfpack  # noqa: E402
 from wolfpack.learn import train  # noqa: E402
-from wolfpack.learn.sets import EntityNorm, SetNet  # noqa: E402
+from wolfpack.learn.sets import EntityNorm, SetNet, encode_mean_max, row_encoder  # noqa: E402
 from wolfpack.learn.tasks import VARIANTS, parse_vary  # noqa: E402
 from wolfpack.models import load_policy  # noqa: E402
 from wolfpack.scorecard import as_policy, scorecard  # noqa: E402
@@ -57,6 +57,66 @@ def test_the_set_network_ignores_row_order_and_padding(pool):
     more = rows.copy()
     more[0, 5] += 1.0
     assert not torch.allclose(a, net(torch.from_numpy(obs_with_rows(more))).detach())
+
+
+def test_the_fused_row_pooling_matches_autograd_through_relu_mean_and_max():
+    # encode_mean_max has a hand-written backward: it must give autograd's values and
+    # gradients (for the weight and the rows; the row count is a constant, not a path) on rows
+    # with padding and a world with none present.
+    torch.manual_seed(0)
+    rows = torch.randn(6, 5, F, dtype=torch.float64)
+    rows[:, :, 0] = (torch.rand(6, 5) < 0.6).double()
+    rows[:, 0, 0] = 1.0
+    rows[5, :, 0] = 0.0  # a world whose rows are all padding
+    rows.mul_(rows[:, :, :1])
+    encoder = row_encoder(F, 8).double()
+    grad = torch.randn(6, 16, dtype=torch.float64)
+
+    def reference(r):
+        e = torch.relu(encoder(r))
+        return torch.cat([e.sum(1) / r[:, :, :1].detach().sum(1).clamp(min=1.0), e.amax(1)], -1)
+
+    outputs, grads = [], []
+    for fn in (reference, lambda r: encode_mean_max(r, encoder)):
+        encoder.zero_grad()
+        r = rows.clone().requires_grad_(True)
+        out = fn(r)
+        out.backward(grad)
+        outputs.append(out.detach())
+        grads.append((encoder.weight.grad.clone(), r.grad.clone()))
+    torch.testing.assert_close(outputs[1], outputs[0])
+    torch.testing.assert_close(grads[1][0], grads[0][0])
+    torch.testing.assert_close(grads[1][1], grads[0][1])
+    assert grads[0][0].abs().sum() > 0 and outputs[0][5].abs().sum() == 0
+
+
+def test_dropping_empty_slots_changes_no_action_and_no_batch_mate_changes_one():
+    # The set encoder skips the slots that are padding everywhere in its batch (and the update
+    # drops those of a whole rollout): a world's output must be the same bits whichever other
+    # worlds share its batch and whether the rollout was compacted.
+    batch = wolfpack.BatchEnv(task="hunt-v1", num_envs=16, learners="wolves", seed=3, **{"env.observation": "entities"})
+    out = batch.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        out = batch.step(rng.uniform(-1, 1, size=(16, batch.n_wolves, 2)).astype(np.float32))
+    x = torch.from_numpy(out["obs_wolves"].copy())  # [16 worlds, 5 wolves, D]
+    walls = 4
+    own = x.shape[-1] - (walls + 18) * F
+    torch.manual_seed(0)
+    net = SetNet(own, F, 16, [16], 2, "tanh", "mean_max", 4, 1.0, wall_rows=walls)
+    compact = net.walls.without_empty_slots(x)
+    assert compact.shape[-1] < x.shape[-1], "hunt-v1's wolves leave slots empty (5 wolves, 1 target)"
+    with torch.no_grad():
+        full = net(x)
+        assert torch.equal(net(compact), full)
+        # A world alone (with its 5 wolves) against the same world among 16: other worlds' rows
+        # decide which slots are encoded, never the values.
+        crowded = x[:4].clone()  # worlds whose every slot holds a row
+        rows = crowded[..., own:].reshape(4, batch.n_wolves, -1, F)
+        rows[:] = rows[:, :, :1]
+        together = net(torch.cat([crowded, x[4:]]))
+        assert torch.equal(together[4:], full[4:])
+        assert torch.equal(net(x[4:8]), full[4:8])
 
 
 def test_the_entity_normaliser_counts_present_rows_only_and_keeps_padding_zero():

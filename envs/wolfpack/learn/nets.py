@@ -119,6 +119,12 @@ class GaussianActor(nn.Module):
         """The network's input for already normalised observations [..., D]."""
         return normed_obs
 
+    def rollout_inputs(self, normed_obs: torch.Tensor) -> torch.Tensor:
+        """The network's inputs for a whole rollout's normalised observations [..., D], from
+        which an update gathers its minibatches: :meth:`inputs` (an actor may also leave out
+        entries that no observation of the rollout uses)."""
+        return self.inputs(normed_obs)
+
     def mean(self, normed_obs: torch.Tensor) -> torch.Tensor:
         """The Gaussian's mean for already normalised observations [..., D]."""
         return self.body(self.inputs(normed_obs))

@@ -247,7 +247,7 @@ class SideLearner:
             with torch.no_grad():
                 # The actor's and the critic's per-agent inputs are the same rows (the normalised
                 # observation, ⊕ the agent id when the recipe asks for it): gathered once.
-                agent_in = self.actor.inputs(r.obs).reshape(T * E, K, -1)
+                agent_in = self.actor.rollout_inputs(r.obs).reshape(T * E, K, -1)
             data.append(
                 dict(
                     agent_in=agent_in,
