@@ -20,7 +20,7 @@ from wolfpack.learn import train  # noqa: E402
 from wolfpack.learn.sets import EntityNorm, SetNet, encode_mean_max, row_encoder  # noqa: E402
 from wolfpack.learn.tasks import VARIANTS, parse_vary  # noqa: E402
 from wolfpack.models import load_policy  # noqa: E402
-from wolfpack.scorecard import as_policy, scorecard  # noqa: E402
+from wolfpack.scorecard import as_policy, best_law, load_baselines, scorecard  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"num_envs": 8, "n_steps": 16, "epochs": 2, "minibatch_size": 64, "hidden": [16, 16], "entity_width": 8, "heads": 2, "network": "entities"}
@@ -31,7 +31,9 @@ F = len(wolfpack.ENTITY_FIELDS)
 def tiny(out: Path, tasks, timesteps: int = 3_000, **kw):
     kw.setdefault("overrides", SHORT)
     kw.setdefault("hp", TINY)
-    return train("wolves", "mappo", out=out, task=tasks, timesteps=timesteps, device="cpu", progress=False, threads=1, torch_threads=1, eval_episodes=2, evaluations=1, seed=kw.pop("seed", 0), **kw)
+    kw.setdefault("eval_episodes", 2)
+    kw.setdefault("evaluations", 1)
+    return train("wolves", "mappo", out=out, task=tasks, timesteps=timesteps, device="cpu", progress=False, threads=1, torch_threads=1, seed=kw.pop("seed", 0), **kw)
 
 
 def obs_with_rows(rows: np.ndarray, own: int = 7) -> np.ndarray:
@@ -186,6 +188,29 @@ def test_a_multi_task_run_is_deterministic(tmp_path):
     wa, wb = (torch.load(p / "wolves" / "policy.pt", weights_only=True) for p in (tmp_path / "a", tmp_path / "b"))
     for key in wa:
         torch.testing.assert_close(wa[key], wb[key], rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("mode", ["adaptive", "shortfall"])
+def test_task_weights_follow_the_last_held_out_evaluation(tmp_path, mode):
+    # After the mid-run evaluation, each task weighs by its failure rate (adaptive) or by how
+    # far it is below the task's best committed law (shortfall), plus 0.05, scaled to mean 1:
+    # taking two targets, which the best law does 28 % of the time, must then weigh less than
+    # hunt-v1, which it takes 97.5 % of the time, when the learner fails both.
+    tasks = ["hunt-v1", "two-targets-v1"]
+    tiny(tmp_path, tasks, timesteps=6_000, task_weights=mode, evaluations=2, eval_episodes=4)
+    first = json.loads((tmp_path / "evaluations.json").read_text())[0]
+    score = {t: first["tasks"][t]["wolves"]["capture_rate"] for t in tasks}
+    laws = load_baselines()
+    need = {t: (best_law(laws, "wolves", t)[1] - score[t] if mode == "shortfall" else 1.0 - score[t]) for t in tasks}
+    raw = [max(0.0, need[t]) + 0.05 for t in tasks]
+    expected = [w / (sum(raw) / len(raw)) for w in raw]
+    rows = list(csv.DictReader((tmp_path / "progress.csv").open()))
+    after = [r for r in rows if int(r["agent_steps"]) > first["agent_steps"]]
+    assert after and all(float(r["weight_hunt-v1"]) == 1.0 for r in rows if r not in after)
+    for r in after:
+        assert [float(r[f"weight_{t}"]) for t in tasks] == pytest.approx(expected, rel=1e-5)
+    if mode == "shortfall" and score["two-targets-v1"] < 0.2:
+        assert expected[1] < expected[0]
 
 
 def test_vary_draws_each_group_within_its_range(tmp_path):

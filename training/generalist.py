@@ -28,13 +28,7 @@ import numpy as np  # noqa: E402
 from common import UsageError, positive_int, prepare_out  # noqa: E402
 from seeds import iqm_cell, iqm_interval  # noqa: E402
 from wolfpack.evaluation import HELD_OUT_SEED  # noqa: E402
-from wolfpack.scorecard import load_baselines, scorecard  # noqa: E402
-
-
-def best_law(baselines: dict, task: str) -> tuple[str, float] | None:
-    """The committed law that captures most on ``task`` (its name and rate)."""
-    laws = {name: entry["tasks"][task]["score"] for name, entry in baselines.get("wolves", {}).items() if entry["kind"] == "law" and task in entry.get("tasks", {})}
-    return max(laws.items(), key=lambda kv: kv[1]) if laws else None
+from wolfpack.scorecard import best_law, load_baselines, scorecard  # noqa: E402
 
 
 def summarise(cards: list[dict], best: dict[str, tuple[str, float] | None]) -> dict:
@@ -114,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     baselines = load_baselines()
     suite = [scorecard(str(run), "wolves", episodes=args.episodes, seed=HELD_OUT_SEED) for run in runs]
     track = [scorecard(str(run), "wolves", episodes=args.episodes, seed=HELD_OUT_SEED, track="generalisation") for run in runs]
-    best = {task: best_law(baselines, task) for task in suite[0]["tasks"]}
+    best = {task: best_law(baselines, "wolves", task) for task in suite[0]["tasks"]}
     # The track's bar is bvc's rate, the law that generalises best (docs/tasks.md).
     best_track = {name: ("bvc", row["baselines"]["bvc"]) if "bvc" in row.get("baselines", {}) else None for name, row in track[0]["tasks"].items()}
     doc = {

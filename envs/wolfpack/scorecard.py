@@ -118,6 +118,14 @@ def load_baselines(path: str | Path | None = None, learned: str | Path | None = 
     return base
 
 
+def best_law(baselines: dict, side: str, task: str) -> tuple[str, float] | None:
+    """The committed law of ``side`` that scores most on ``task`` (:func:`load_baselines`), as
+    (its name, its score: the capture rate for wolves, the survival rate for targets); None
+    where no law was scored on it."""
+    laws = {name: entry["tasks"][task]["score"] for name, entry in baselines.get(side, {}).items() if entry["kind"] == "law" and task in entry.get("tasks", {})}
+    return max(laws.items(), key=lambda kv: kv[1]) if laws else None
+
+
 def _add_learned(base: dict, learned: dict) -> None:
     """Adds ``learned``'s learners (task_baselines.py's summary) to ``base`` as baselines of their
     side, where they were scored on ``base``'s episodes: a learner's score on a task is the IQM

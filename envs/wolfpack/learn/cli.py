@@ -13,7 +13,7 @@ from typing import Any, Sequence
 from wolfpack._checks import is_int
 from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe, recipes_params_overrides
-from wolfpack.learn.tasks import VARIANTS, parse_vary, task_list, world_groups
+from wolfpack.learn.tasks import TASK_WEIGHTS, VARIANTS, parse_vary, task_list, world_groups
 from wolfpack.task import TASK_ORDER
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -118,9 +118,9 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--task-weights",
-        choices=("uniform", "adaptive"),
+        choices=TASK_WEIGHTS,
         default="uniform",
-        help="how the tasks weigh in the update: uniform (default), or adaptive (after each held-out evaluation, in proportion to how often the learner fails on each)",
+        help="how the tasks weigh in the update: uniform (default); or after each held-out evaluation, adaptive (by how often the learner fails on each) or shortfall (by how far it is below each task's best law)",
     )
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="params override, e.g. --set world.wolves=8 (repeatable)")
     p.add_argument("--hp", metavar="KEY=VALUE", action="append", default=[], dest="hp", help="hyperparameter override, e.g. --hp learning_rate=1e-4 (repeatable; keys: wolfpack/learn/recipes.yaml)")
@@ -419,8 +419,8 @@ def run_training(
         # params what they were trained against.
         overrides[f"policies.{other}"] = opponent
     tasks = task_list([task] if isinstance(task, str) else task)
-    if task_weights not in ("uniform", "adaptive"):
-        raise ValueError(f"--task-weights must be uniform or adaptive, got {task_weights!r}")
+    if task_weights not in TASK_WEIGHTS:
+        raise ValueError(f"--task-weights must be one of {', '.join(TASK_WEIGHTS)}, got {task_weights!r}")
     if vary and not tasks:
         raise ValueError("--vary needs --task: it varies the tasks' worlds")
     groups: list = []

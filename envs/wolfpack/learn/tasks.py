@@ -20,6 +20,10 @@ from wolfpack.task import TASK_ORDER
 VARIANTS = 4
 #: The task list that stands for every task of the suite.
 ALL = "all"
+#: How the tasks weigh in the update (``--task-weights``; docs/interface.md): equally, or after
+#: each held-out evaluation by the learner's failure rate on each (``adaptive``) or by how far
+#: it is below each task's best committed law (``shortfall``).
+TASK_WEIGHTS = ("uniform", "adaptive", "shortfall")
 
 
 def task_list(names: Sequence[str] | None) -> list[str]:

@@ -44,6 +44,7 @@ from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
 from wolfpack.models import POLICY_FILE, load_tensors
 from wolfpack.opponents import CONFIG_FILE, SIDES, Opponent, as_opponent, opponent_side
+from wolfpack.scorecard import best_law, load_baselines
 
 TRAINER_FILE = "trainer.pt"
 BASE_COLUMNS = ("update", "wall_s", "agent_steps", "agent_steps_per_s", "rollout_s", "update_s", "episodes", "captured_rate", "collision_rate", "timeout_rate", "cornered_rate")
@@ -84,8 +85,7 @@ class TrainSpec:
     groups: tuple[tuple[str, str, dict], ...] = ()
     #: The tasks of the held-out evaluations, ``(task, params)`` each; empty: ``params``.
     eval_tasks: tuple[tuple[str, dict], ...] = ()
-    #: How the groups weigh in the update: ``uniform``, or ``adaptive`` (after each held-out
-    #: evaluation, each task in proportion to how often the learner fails there).
+    #: How the groups weigh in the update, one of :data:`wolfpack.learn.tasks.TASK_WEIGHTS`.
     task_weights: str = "uniform"
 
     @property
@@ -170,6 +170,7 @@ class Trainer:
         ]
         self.env = self.envs[0]
         self.group_tasks = [task for _, task, _ in groups]
+        self._baselines = load_baselines() if spec.task_weights == "shortfall" else {}
         for env in self.envs:
             for member in pool_members:  # every pool member fits these worlds, up front
                 env._check_opponent_fits(member)
@@ -487,7 +488,7 @@ class Trainer:
             record[side] = r
             for k in EVAL_COLUMNS:
                 row[f"eval_{side}_{k}"] = r[k]
-        if self.spec.eval_tasks and self.spec.task_weights == "adaptive":
+        if self.spec.eval_tasks and self.spec.task_weights != "uniform":
             self._reweigh(record["tasks"])
         self.evaluations.append(record)
         (self.out / "evaluations.json").write_text(json.dumps(self.evaluations, indent=1) + "\n")
@@ -505,16 +506,26 @@ class Trainer:
         r.pop("capture_steps")
         return r
 
-    #: Adaptive task weights: a task's weight is its failure rate plus this floor (so that a
-    #: solved task keeps some weight), the weights scaled to mean 1 over the groups.
+    #: Adaptive and shortfall task weights: a task's weight is its failure rate (or its
+    #: shortfall) plus this floor, so that a solved task keeps some weight; the weights are
+    #: scaled to mean 1 over the groups.
     WEIGHT_FLOOR = 0.05
 
     def _reweigh(self, per_task: dict[str, dict]) -> None:
-        """Moves each side's group weights towards the tasks it does worst on (held-out rates:
-        the wolves' failure is 1 − capture rate, the targets' the capture rate)."""
+        """Moves each side's group weights towards the tasks it does worst on, from the held-out
+        rates (the side's score: the capture rate for wolves, the survival rate for targets).
+        ``adaptive``: a task's weight is 1 − the score. ``shortfall``: how far the score is below
+        the task's best committed law (0 at or above it; 1 − the score for a task no law was
+        scored on): a task that no policy can solve, such as taking two targets, does not take
+        the loss from those a law shows can be solved."""
         for side, learner in self.learners.items():
-            failure = {task: (1.0 - reps[side]["capture_rate"]) if side == "wolves" else reps[side]["capture_rate"] for task, reps in per_task.items()}
-            raw = [failure[task] + self.WEIGHT_FLOOR for task in self.group_tasks]
+            score = {task: reps[side]["capture_rate"] if side == "wolves" else 1.0 - reps[side]["capture_rate"] for task, reps in per_task.items()}
+            if self.spec.task_weights == "shortfall":
+                laws = {task: best_law(self._baselines, side, task) for task in score}
+                need = {task: max(0.0, laws[task][1] - score[task]) if laws[task] else 1.0 - score[task] for task in score}
+            else:
+                need = {task: 1.0 - score[task] for task in score}
+            raw = [need[task] + self.WEIGHT_FLOOR for task in self.group_tasks]
             mean = sum(raw) / len(raw)
             learner.group_weights = [w / mean for w in raw]
 
