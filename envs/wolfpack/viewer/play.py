@@ -1,0 +1,71 @@
+"""Policies played on the same episodes for ``wolfpack view --compare``: each drives the wolves
+(a law by name, or a saved model) against the scenario's targets, episode k in world seed
+``S + k`` (:func:`wolfpack.evaluation.rollout`'s numbering: the very starts ``wolfpack hunt
+--seed S`` plays), and every state is recorded as ``trajectory.npz`` records it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from wolfpack import _core
+from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step
+from wolfpack.logs import _vertices_table
+
+
+def _kind(o: dict) -> str:
+    return f"{'moving' if o['moving'] else 'static'}_{o['kind']}"
+
+
+def play(policy: Any, params: dict, episodes: int, seed: int, threads: int | None = None) -> list[dict[str, np.ndarray]]:
+    """``policy`` (anything :func:`wolfpack.scorecard.as_policy` takes) driving the wolves for
+    ``episodes`` episodes from world seed ``seed``: the arrays of ``trajectory.npz`` per
+    episode (:mod:`wolfpack.logs`)."""
+    from wolfpack.scorecard import as_policy
+
+    driver = as_policy(policy, "wolves")
+    batch = BatchEnv(params, num_envs=episodes, learners="none", seed=seed, autoreset=False, threads=threads, opponent=driver)
+    batch.reset(seed)  # episode 0 of worlds seed + e
+    n, m = batch.n_wolves, batch.n_targets
+    states: list[list[dict]] = [[batch.world_state(e)] for e in range(episodes)]
+    ended: list[dict | None] = [None] * episodes
+    while any(x is None for x in ended):
+        out = batch.step()
+        for e in range(episodes):
+            if ended[e] is not None:
+                continue
+            states[e].append(batch.world_state(e))
+            if int(out["outcome"][e]) != 0:
+                ended[e] = {k: np.array(v[e], copy=True) for k, v in out.items()}
+    resolved = _core.validate_params(params, resolve=True)
+    border = np.asarray(resolved["world"]["border"], dtype=np.float64)
+    result = []
+    for e in range(episodes):
+        s, end = states[e], ended[e]
+        shapes = s[0]["obstacles"]
+        outcome = OUTCOMES[int(end["outcome"])]
+        caps = np.asarray(end["capture_step"]).reshape(-1)
+        cornered = first_cornered_step(end["cornered_step"])
+        result.append(
+            {
+                "wolves": np.stack([x["wolves"] for x in s]).astype(np.float64),
+                "targets": np.stack([x["targets"] for x in s]).astype(np.float64),
+                "energy": np.stack([x["energy"] for x in s]).astype(np.float64),
+                "interaction": np.stack([x["interaction"] for x in s[1:]]).astype(np.uint8) if len(s) > 1 else np.zeros((0, n + m, n + m), np.uint8),
+                "collisions": np.asarray(end["collisions"], dtype=np.uint32),
+                "outcome": np.array(outcome),
+                "capture_step": np.array(int(caps.max()) if outcome == "captured" else -1, dtype=np.int64),
+                "target_capture_step": np.array([int(c) if c >= 0 else -1 for c in caps], dtype=np.int64),
+                "cornered_step": np.array(cornered if cornered >= 0 else -1, dtype=np.int64),
+                "seed": np.array(seed + e, dtype=np.uint64),
+                "obstacle_poses": np.array([[[*o["center"], o["angle"]] for o in x["obstacles"]] for x in s], dtype=np.float64).reshape(len(s), len(shapes), 3),
+                "obstacle_kind": np.array([_kind(o) for o in shapes], dtype=str),
+                "obstacle_radius": np.array([float(o["radius"]) for o in shapes], dtype=np.float64),
+                "obstacle_vertices": _vertices_table([{"vertices": np.asarray(o["local"]).tolist()} for o in shapes]),
+                "border": border,
+                "ts": np.array(float(resolved["world"]["ts"])),
+                "capture_distance": np.array(float(resolved["capture"]["distance"])),
+            }
+        )
+    return result
