@@ -500,3 +500,44 @@ def test_the_page_data_is_plain_base64():
     packed = encode.encode_episode(arrays, PARAMS)
     for key in ("agents", "poses", "energy", "interaction"):
         base64.b64decode(packed[key], validate=True)
+
+
+@browser_test
+def test_the_lidar_drawn_is_the_wolves_observation(open_page, tmp_path):
+    from conftest import layout_dict
+    from wolfpack.batch import BatchEnv
+
+    # Wolves near the walls and the obstacles, so that rays end on both.
+    layout = layout_dict()
+    layout["wolves"] = [[-8.6, -8.8, 3.9], [3.5, 5.0, 0.1], [-7.2, 5.1, 0.0], [9.0, 0.0, 1.0], [0.0, -9.2, 4.5]]
+    (tmp_path / "layout.json").write_text(json.dumps(layout))
+    cli_main(["hunt", "--episodes", "1", "--layout", str(tmp_path / "layout.json"), "--set", "world.max_steps=5", "--plots", "0", "--out", str(tmp_path / "run")])
+    page = open_page(tmp_path / "run" / "index.html")
+    block = next(b for b in wolfpack.observation_layout("wolves") if b["name"] == "lidar")
+    batch = BatchEnv(wolfpack.load_params(overrides={"world.max_steps": 5}), num_envs=1, learners="wolves", seed=0, autoreset=False)
+    obs = np.asarray(batch.reset_world(0, 0, layout)["obs_wolves"])
+    obs = obs.reshape(-1, obs.shape[-1])
+    rng = PARAMS["env"]["lidar"]["range"]
+    hits = 0
+    for i in range(obs.shape[0]):
+        want = obs[i, block["start"] : block["start"] + block["size"]] * rng
+        got = np.array(page.js(f"wolfpack.lidar(0, {i})"))
+        assert got.shape == want.shape
+        # positions to 1 mm and headings to 0.001 rad move a hit by a few mm at most (more only
+        # where a ray grazes a corner, hence the median)
+        assert np.median(np.abs(got - want)) < 0.005 and np.mean(np.abs(got - want) < 0.02) >= 0.9, (i, got, want)
+        hits += int((want < rng - 1e-6).sum())
+    assert hits >= 10, "too few rays end on something to test the casting"
+    # clicking a wolf draws its rays and says what they hit
+    (xy, _), *_ = _wolf_pixels(page, 0)
+    page.page.mouse.click(*xy)
+    assert "lidar" in page.page.inner_text("#info") and "16 rays" in page.page.inner_text("#info")
+    assert page.problems == []
+
+
+def test_view_help_names_the_ways_and_the_precision(cli):
+    proc = cli("view", "--help")
+    assert proc.returncode == 0
+    for word in ("RUN_OR_NPZ", "--out", "--compare", "--episodes", "--force", "1 mm", "0.001 rad", "window.wolfpack.state", "examples:"):
+        assert word in proc.stdout, word
+    assert "view" in cli("--help").stdout

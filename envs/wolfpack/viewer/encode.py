@@ -163,6 +163,9 @@ def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], 
         "capture_distance": float(np.asarray(arrays["capture_distance"])),
         "sense_radius": [float(agent_params["wolf"]["sense_radius"]), float(agent_params["target"]["sense_radius"])],
         "body": [float(agent_params["body"]["height"]), float(agent_params["body"]["base"])],
+        # The page casts each agent's lidar from its state as the core does (without the
+        # learners' noise): ray k at heading + 2πk/rays, to the first obstacle or wall, at most range.
+        "lidar": [int(params["env"]["lidar"]["rays"]), float(params["env"]["lidar"]["range"])],
         "capture_step": _int(arrays, "capture_step"),
         "target_capture_step": ends,
         "cornered_step": _int(arrays, "cornered_step"),

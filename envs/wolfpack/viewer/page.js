@@ -75,6 +75,68 @@
     const end = ep.meta.target_capture_step[j];
     return end >= 0 && end <= t;
   }
+  // --- the lidar, cast from the state as the core casts it (observe/mod.rs) -------------------
+
+  function cross2(ax, ay, bx, by) { return ax * by - ay * bx; }
+  function rayWalls(ox, oy, dx, dy, b) {
+    const tx = dx > 0 ? (b[2] - ox) / dx : dx < 0 ? (b[0] - ox) / dx : Infinity;
+    const ty = dy > 0 ? (b[3] - oy) / dy : dy < 0 ? (b[1] - oy) / dy : Infinity;
+    return Math.max(0, Math.min(tx, ty));
+  }
+  function rayCircle(ox, oy, dx, dy, cx, cy, r, max) {
+    const tx = cx - ox, ty = cy - oy, dist2 = tx * tx + ty * ty;
+    if (dist2 <= r * r) return 0;
+    const along = tx * dx + ty * dy;
+    if (along < 0) return null;
+    const miss2 = dist2 - along * along;
+    if (miss2 > r * r) return null;
+    const t = along - Math.sqrt(r * r - miss2);
+    return t <= max ? Math.max(0, t) : null;
+  }
+  function insidePolygon(v, x, y) {
+    let inside = false;
+    for (let i = 0, j = v.length - 1; i < v.length; j = i++) {
+      if ((v[i][1] > y) !== (v[j][1] > y) && x < (v[j][0] - v[i][0]) * (y - v[i][1]) / (v[j][1] - v[i][1]) + v[i][0]) inside = !inside;
+    }
+    return inside;
+  }
+  function rayPolygon(ox, oy, dx, dy, v, max) {
+    if (insidePolygon(v, ox, oy)) return 0;
+    let best = max, hit = false;
+    for (let i = 0; i < v.length; i++) {
+      const a = v[(i + v.length - 1) % v.length], b = v[i];
+      const ex = b[0] - a[0], ey = b[1] - a[1], denom = cross2(dx, dy, ex, ey);
+      if (denom === 0) continue;
+      const ax = a[0] - ox, ay = a[1] - oy;
+      const t = cross2(ax, ay, ex, ey) / denom, u = cross2(ax, ay, dx, dy) / denom;
+      if (t >= 0 && u >= 0 && u <= 1 && t <= best) { best = t; hit = true; }
+    }
+    return hit ? best : null;
+  }
+  function worldVertices(ep, k, t) {
+    const o = (t * ep.K + k) * 3, x = ep.poses[o], y = ep.poses[o + 1], ang = ep.poses[o + 2];
+    const cs = Math.cos(ang), sn = Math.sin(ang);
+    return ep.meta.obstacle_local[k].map(function (v) { return [x + cs * v[0] - sn * v[1], y + sn * v[0] + cs * v[1]]; });
+  }
+  // Distances (m) of agent a's lidar rays at step t; [] when the scenario has no lidar.
+  function lidar(ep, t, a) {
+    const rays = ep.meta.lidar ? ep.meta.lidar[0] : 0, range = rays ? ep.meta.lidar[1] : 0;
+    const s = agentAt(ep, t, a), out = [];
+    for (let k = 0; k < rays; k++) {
+      const ang = s[2] + 2 * Math.PI * k / rays, dx = Math.cos(ang), dy = Math.sin(ang);
+      let best = Math.min(rayWalls(s[0], s[1], dx, dy, ep.meta.border), range);
+      for (let j = 0; j < ep.K; j++) {
+        const o = (t * ep.K + j) * 3;
+        const hit = ep.meta.obstacle_kind[j].endsWith("circle")
+          ? rayCircle(s[0], s[1], dx, dy, ep.poses[o], ep.poses[o + 1], ep.meta.obstacle_radius[j], best)
+          : rayPolygon(s[0], s[1], dx, dy, worldVertices(ep, j, t), best);
+        if (hit !== null) best = Math.min(best, hit);
+      }
+      out.push(best);
+    }
+    return out;
+  }
+
   function rgb(c) { return "rgb(" + c[0] + "," + c[1] + "," + c[2] + ")"; }
   function rgba(c, a) { return "rgba(" + c[0] + "," + c[1] + "," + c[2] + "," + a + ")"; }
   function wolfColour(i) { return C.wolves[i % C.wolves.length]; }
@@ -85,7 +147,7 @@
   const view = {
     item: 0, step: 0, playing: false, speed: 1,
     zoom: 1, cx: null, cy: null, // the world point at the panes' centre (null: the arena's)
-    trails: true, sensing: false, links: false,
+    trails: true, sensing: false, links: false, lidar: true,
     selected: null, // {pane, agent}
   };
   const panes = []; // {div, canvas, caption, index (episode), transform}
@@ -250,6 +312,16 @@
 
     if (view.selected && view.selected.pane === p && view.selected.agent < ep.A) {
       const s = agentAt(ep, t, view.selected.agent), c = toPx(tr, s[0], s[1]);
+      if (view.lidar) {
+        const rays = lidar(ep, t, view.selected.agent), range = rays.length ? ep.meta.lidar[1] : 0;
+        ctx.lineWidth = 1;
+        rays.forEach(function (d, k) {
+          const ang = s[2] + 2 * Math.PI * k / rays.length, q = toPx(tr, s[0] + d * Math.cos(ang), s[1] + d * Math.sin(ang));
+          ctx.strokeStyle = d < range ? "rgba(200,0,120,0.8)" : "rgba(120,120,120,0.45)";
+          ctx.beginPath(); ctx.moveTo(c[0], c[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
+          if (d < range) { ctx.fillStyle = "rgb(200,0,120)"; ctx.beginPath(); ctx.arc(q[0], q[1], 2.5, 0, 2 * Math.PI); ctx.fill(); }
+        });
+      }
       ctx.strokeStyle = "#000"; ctx.lineWidth = 1.5; ctx.setLineDash([2, 2]);
       ctx.beginPath(); ctx.arc(c[0], c[1], Math.max(12, ep.meta.body[0] * tr.s * 1.6), 0, 2 * Math.PI); ctx.stroke();
       ctx.setLineDash([]);
@@ -326,6 +398,11 @@
       ["senses", t === 0 ? "(from step 1)" : (senses.join(", ") || "nothing")],
       ["contacts", ep.meta.collisions[a] + " steps over the episode"],
     ];
+    const rays = lidar(ep, t, a);
+    if (rays.length) {
+      const hits = rays.filter(function (d) { return d < ep.meta.lidar[1]; });
+      rows.push(["lidar", rays.length + " rays, " + (hits.length ? hits.length + " hit, nearest " + Math.min.apply(null, hits).toFixed(2) + " m" : "nothing within " + ep.meta.lidar[1] + " m")]);
+    }
     if (a >= ep.N) {
       const end = ep.meta.target_capture_step[a - ep.N];
       rows.push(["hunt", end >= 0 && end <= t ? "ended at step " + end : "going on"]);
@@ -397,7 +474,7 @@
       caption.className = "caption";
       const meta = DATA.episodes[e];
       const name = DATA.panes ? DATA.panes[p] : meta.label;
-      caption.textContent = name + " \u2014 seed " + meta.seed + ", " + meta.outcome + (meta.outcome === "captured" ? " at step " + meta.capture_step : " after " + meta.steps + " steps");
+      caption.textContent = name + (name.indexOf("seed") >= 0 ? "" : " \u2014 seed " + meta.seed) + ": " + meta.outcome + (meta.outcome === "captured" ? " at step " + meta.capture_step : " after " + meta.steps + " steps");
       const canvas = document.createElement("canvas");
       canvas.dataset.pane = p;
       div.appendChild(caption); div.appendChild(canvas);
@@ -536,7 +613,7 @@
     document.getElementById("zoom-in").addEventListener("click", function () { zoomAt(0, 1.25); });
     document.getElementById("zoom-out").addEventListener("click", function () { zoomAt(0, 1 / 1.25); });
     document.getElementById("zoom-reset").addEventListener("click", resetView);
-    for (const [id, key] of [["show-trails", "trails"], ["show-sensing", "sensing"], ["show-links", "links"]]) {
+    for (const [id, key] of [["show-trails", "trails"], ["show-sensing", "sensing"], ["show-links", "links"], ["show-lidar", "lidar"]]) {
       const box = document.getElementById(id);
       view[key] = box.checked;
       box.addEventListener("change", function () { view[key] = box.checked; draw(); });
@@ -616,6 +693,12 @@
     toScreen: function (x, y, pane) {
       const p = checkPane(pane), r = panes[p].canvas.getBoundingClientRect(), q = toPx(panes[p].transform, x, y);
       return [r.left + q[0], r.top + q[1]];
+    },
+    // The lidar distances (m) of agent `agent` (wolves first, then targets) at `step`.
+    lidar: function (step, agent, pane) {
+      const ep = paneEpisode(checkPane(pane));
+      if (!(agent >= 0 && agent < ep.A)) throw new RangeError("agent " + agent + ": the episode has " + ep.A);
+      return lidar(ep, Math.max(0, Math.min(ep.rows - 1, Math.round(step))), agent);
     },
     colours: function () { return JSON.parse(JSON.stringify(C)); },
     selected: function () { return view.selected ? Object.assign({}, view.selected) : null; },
