@@ -280,6 +280,19 @@
       }
     }
 
+    // The clicked agent's lidar, under the bodies.
+    if (view.lidar && view.selected && view.selected.pane === p && view.selected.agent < ep.A) {
+      const s = agentAt(ep, t, view.selected.agent), c = toPx(tr, s[0], s[1]);
+      const rays = lidar(ep, t, view.selected.agent), range = rays.length ? ep.meta.lidar[1] : 0;
+      ctx.lineWidth = 1;
+      rays.forEach(function (d, k) {
+        const ang = s[2] + 2 * Math.PI * k / rays.length, q = toPx(tr, s[0] + d * Math.cos(ang), s[1] + d * Math.sin(ang));
+        ctx.strokeStyle = d < range ? "rgba(20,20,20,0.7)" : "rgba(120,120,120,0.4)";
+        ctx.beginPath(); ctx.moveTo(c[0], c[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
+        if (d < range) { ctx.fillStyle = "#000"; ctx.strokeStyle = "#fff"; ctx.beginPath(); ctx.arc(q[0], q[1], 3, 0, 2 * Math.PI); ctx.fill(); ctx.stroke(); }
+      });
+    }
+
     // The capture ring around every target still hunted.
     ctx.setLineDash([5, 4]); ctx.lineWidth = 1.2; ctx.strokeStyle = rgb(C.target);
     for (let j = 0; j < ep.M; j++) {
@@ -312,16 +325,6 @@
 
     if (view.selected && view.selected.pane === p && view.selected.agent < ep.A) {
       const s = agentAt(ep, t, view.selected.agent), c = toPx(tr, s[0], s[1]);
-      if (view.lidar) {
-        const rays = lidar(ep, t, view.selected.agent), range = rays.length ? ep.meta.lidar[1] : 0;
-        ctx.lineWidth = 1;
-        rays.forEach(function (d, k) {
-          const ang = s[2] + 2 * Math.PI * k / rays.length, q = toPx(tr, s[0] + d * Math.cos(ang), s[1] + d * Math.sin(ang));
-          ctx.strokeStyle = d < range ? "rgba(200,0,120,0.8)" : "rgba(120,120,120,0.45)";
-          ctx.beginPath(); ctx.moveTo(c[0], c[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
-          if (d < range) { ctx.fillStyle = "rgb(200,0,120)"; ctx.beginPath(); ctx.arc(q[0], q[1], 2.5, 0, 2 * Math.PI); ctx.fill(); }
-        });
-      }
       ctx.strokeStyle = "#000"; ctx.lineWidth = 1.5; ctx.setLineDash([2, 2]);
       ctx.beginPath(); ctx.arc(c[0], c[1], Math.max(12, ep.meta.body[0] * tr.s * 1.6), 0, 2 * Math.PI); ctx.stroke();
       ctx.setLineDash([]);
