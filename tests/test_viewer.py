@@ -541,3 +541,85 @@ def test_view_help_names_the_ways_and_the_precision(cli):
     for word in ("RUN_OR_NPZ", "--out", "--compare", "--episodes", "--force", "1 mm", "0.001 rad", "window.wolfpack.state", "examples:"):
         assert word in proc.stdout, word
     assert "view" in cli("--help").stdout
+
+
+# --- tables whose cells open episodes ----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_matrix(tmp_path_factory) -> Path:
+    """A cross-play matrix of laws in matrix.json's format (the numbers are made up: the page
+    shows them, it does not recompute them)."""
+    folder = tmp_path_factory.mktemp("matrix")
+    wolves, targets = ["bvc", "seed000"], ["escape", "still"]
+    cells = [
+        {"wolves": w, "targets": t, "episodes": 10, "first_seed": 2, "capture_rate": 0.1 * (i + 1), "capture_rate_ci95": [0.0, 0.5]} for i, (w, t) in enumerate((w, t) for w in wolves for t in targets)
+    ]
+    params = wolfpack.load_params(overrides={"world.max_steps": 40})
+    (folder / "matrix.json").write_text(json.dumps({"episodes": 10, "seed": 2, "params": params, "wolves": wolves, "targets": targets, "models": {}, "cells": cells, "robustness": {}, "skipped": []}))
+    return folder
+
+
+def test_the_matrix_page_opens_an_episode_of_each_pairing(tmp_path, small_matrix, capsys):
+    out = tmp_path / "m.html"
+    status, err = run(["view", "--matrix", small_matrix, "--out", out], capsys)
+    assert status == 0, err
+    data = page_json(out)
+    table = data["table"]
+    assert table["rows"] == ["bvc", "seed000"] and table["columns"] == ["escape", "still"]
+    assert [[c["text"] for c in row] for row in table["cells"]] == [["10%", "20%"], ["30%", "40%"]]
+    for r, w in enumerate(table["rows"]):
+        for c, t in enumerate(table["columns"]):
+            shown = data["episodes"][data["items"][table["cells"][r][c]["item"]]["episodes"][0]]
+            params = wolfpack.load_params(overrides={"world.max_steps": 40, "policies.wolves": w, "policies.targets": t})
+            want = logs.trajectory_arrays(wolfpack.run_episodes(params, 1, 2, record=True)[0], PARAMS)
+            assert shown["seed"] == 2 and shown["outcome"] == str(want["outcome"]), (w, t)
+            assert _close(encode.decode_episode(shown)["targets"][..., :2], want["targets"][..., :2], POSITION_TOL)
+
+
+def test_the_scorecard_page_opens_an_episode_of_each_task(tmp_path, capsys):
+    card = tmp_path / "card"
+    assert run(["benchmark", "--wolves", "bvc", "--episodes", "2", "--tasks", "hunt-v1", "open-v1", "--out", card], capsys)[0] == 0
+    out = tmp_path / "card.html"
+    status, err = run(["view", "--scorecard", card, "--out", out], capsys)
+    assert status == 0, err
+    data = page_json(out)
+    assert data["table"]["rows"] == ["hunt-v1", "open-v1"]
+    from wolfpack.task import task_params
+
+    for r, task in enumerate(data["table"]["rows"]):
+        shown = data["episodes"][data["items"][data["table"]["cells"][r][0]["item"]]["episodes"][0]]
+        want = wolfpack.run_episodes(task_params(task, {"policies.wolves": "bvc"}), 1, 500_000)[0]
+        assert shown["seed"] == 500_000 and shown["outcome"] == want["outcome"] and shown["steps"] == want["steps"], task
+    # a scorecard of a model needs the model
+    doc = json.loads((card / "scorecard.json").read_text())
+    doc["policy"] = "mappo:somewhere"
+    (card / "scorecard.json").write_text(json.dumps(doc))
+    status, err = run(["view", "--scorecard", card, "--out", tmp_path / "other.html"], capsys)
+    assert status == 2 and "--policy" in err and err.count("\n") == 1
+    assert not (tmp_path / "other.html").exists()
+
+
+def test_a_file_that_is_no_matrix_is_refused(tmp_path, capsys):
+    (tmp_path / "matrix.json").write_text('{"wolves": []}')
+    status, err = run(["view", "--matrix", tmp_path / "matrix.json", "--out", tmp_path / "m.html"], capsys)
+    assert status == 2 and "not a matrix.json" in err and err.count("\n") == 1
+    assert not (tmp_path / "m.html").exists()
+
+
+@browser_test
+def test_a_matrix_cell_opens_its_episode_in_the_browser(open_page, tmp_path, small_matrix, capsys):
+    out = tmp_path / "m.html"
+    assert run(["view", "--matrix", small_matrix, "--out", out], capsys)[0] == 0
+    data = page_json(out)
+    page = open_page(out)
+    assert page.js("wolfpack.showing()") == "table"
+    page.page.click("td.cell[data-row='1'][data-column='0']")  # seed000 vs escape
+    item = data["table"]["cells"][1][0]["item"]
+    assert page.js("[wolfpack.showing(), wolfpack.item()]") == ["episode", item]
+    shown = encode.decode_episode(data["episodes"][data["items"][item]["episodes"][0]])
+    page.scrub(9)
+    _assert_state(page.js("wolfpack.state(9)"), shown, 9)
+    page.page.click("#to-table")
+    assert page.js("wolfpack.showing()") == "table"
+    assert page.problems == [] and page.requests == []

@@ -30,6 +30,14 @@ Three ways:
       'wolfpack train' run or model folder, an SB3 .zip) on the same --episodes K episodes
       (world seeds --seed S + k, the starts 'wolfpack hunt --seed S' plays), side by side,
       scrubbing together
+  wolfpack view --matrix MATRIX.json --out FILE.html
+      the cross-play matrix of 'training/evaluate.py --matrix' (its matrix.json, or the folder)
+      as a table of capture rates whose cells open an example episode of that pairing, played
+      again on the matrix's first seed
+  wolfpack view --scorecard SCORECARD.json [--policy POLICY] --out FILE.html
+      a scorecard of 'wolfpack benchmark --out' as a table whose rows open an example episode
+      of the policy on that task (its first seed); --policy names the model a scorecard of a
+      model was made with (a law's is played by name)
 
 Positions are stored to 1 mm and angles to 0.001 rad (a 300-step episode of the documented
 scenario takes about 50 KB). The page's script interface, window.wolfpack.state(step), gives
@@ -46,7 +54,9 @@ examples:
   wolfpack view runs/demo --out demo.html
   wolfpack view runs/demo/episode_003/trajectory.npz --out ep3.html
   wolfpack view runs/bvc runs/seed000 --compare --out laws.html
-  wolfpack view --compare bvc results/learned/wolves_mappo/native_wolves_mappo_s0 --episodes 5 --out cmp.html"""
+  wolfpack view --compare bvc results/learned/wolves_mappo/native_wolves_mappo_s0 --episodes 5 --out cmp.html
+  wolfpack view --matrix results/matrix/matrix.json --out matrix.html
+  wolfpack benchmark --wolves bvc --out runs/card && wolfpack view --scorecard runs/card --out card.html"""
 
 #: Episodes that --compare plays without --episodes.
 COMPARE_EPISODES = 5
@@ -70,6 +80,10 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
         "--episodes", metavar="K", type=_int_at_least(1), default=None, help=f"the first K episodes of each run (default: all), or K episodes played by --compare (default: {COMPARE_EPISODES})"
     )
     p.add_argument("--title", metavar="TEXT", default=None, help="the page's title")
+    tables = p.add_argument_group("pages of tables whose cells open episodes")
+    tables.add_argument("--matrix", metavar="MATRIX.json", help="a cross-play matrix (training/evaluate.py --matrix --out DIR: DIR/matrix.json, or DIR)")
+    tables.add_argument("--scorecard", metavar="SCORECARD.json", help="a scorecard (wolfpack benchmark --out DIR: DIR/scorecard.json, or DIR)")
+    tables.add_argument("--policy", metavar="POLICY", help="with --scorecard: the model it scored (default: the scorecard's law)")
     played = p.add_argument_group("the scenario --compare POLICY plays (as 'wolfpack hunt' takes it)")
     scenario = played.add_mutually_exclusive_group()
     scenario.add_argument("--params", metavar="P", help="scenario YAML (default: the packaged params.yaml)")
@@ -165,6 +179,22 @@ def cmd_view(args: argparse.Namespace, argv: Sequence[str]) -> None:
     out = Path(args.out)
     check_out(out, args.force)
     scenario_options = [o for o, given in (("--task", args.task), ("--params", args.params), ("--set", args.overrides), ("--targets", args.targets)) if given]
+    tables = [o for o, given in (("--matrix", args.matrix), ("--scorecard", args.scorecard)) if given]
+    if args.policy and not args.scorecard:
+        raise ValueError("--policy: only with --scorecard")
+    if tables:
+        if len(tables) > 1 or args.inputs or args.compare is not None or scenario_options:
+            raise ValueError(
+                f"{tables[0]}: a page of its own; not with {', '.join((tables[1:] or []) + (['runs'] if args.inputs else []) + (['--compare'] if args.compare is not None else []) + scenario_options)}"
+            )
+        from wolfpack.viewer import tables as pages
+
+        made = pages.matrix_page(args.matrix, args.episodes or 1, args.threads) if args.matrix else pages.scorecard_page(args.scorecard, args.policy, args.episodes or 1, args.threads)
+        data = page_data(made["episodes"], made["items"], None, made["subtitle"], made["table"])
+        out.parent.mkdir(parents=True, exist_ok=True)
+        size = write_page(out, data, args.title or made["title"])
+        print(f"wrote {out} ({len(made['table']['rows'])} rows, {len(made['episodes'])} example episodes, {size / 1e3:.0f} KB)")
+        return
     if args.compare:  # policies to play
         if args.inputs:
             raise ValueError(f"--compare {' '.join(args.compare)}: plays policies on a scenario; recorded runs ({', '.join(args.inputs)}) are compared with a bare --compare, not with policies")

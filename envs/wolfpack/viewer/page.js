@@ -581,6 +581,54 @@
     draw();
   }
 
+  // --- the table whose cells open episodes (matrix, scorecard) -----------------------------
+
+  function buildTable() {
+    const t = DATA.table, holder = document.getElementById("table-view");
+    const table = document.createElement("table");
+    table.id = "cells";
+    const caption = table.createCaption();
+    caption.textContent = t.caption;
+    const head = table.createTHead().insertRow();
+    const corner = document.createElement("th");
+    corner.textContent = t.corner || "";
+    head.appendChild(corner);
+    for (const c of t.columns) { const th = document.createElement("th"); th.textContent = c; head.appendChild(th); }
+    const body = table.createTBody();
+    t.rows.forEach(function (name, r) {
+      const tr = body.insertRow();
+      const th = document.createElement("th");
+      th.textContent = name;
+      tr.appendChild(th);
+      t.cells[r].forEach(function (cell, c) {
+        const td = tr.insertCell();
+        td.textContent = cell.text;
+        td.title = cell.title || "";
+        if (cell.value !== null && cell.value !== undefined) {
+          const g = C.outcomes.captured;
+          td.style.background = "color-mix(in srgb, " + g + " " + Math.round(70 * cell.value) + "%, white)";
+        }
+        if (cell.item !== null && cell.item !== undefined) {
+          td.className = "cell";
+          td.dataset.item = cell.item;
+          td.dataset.row = r; td.dataset.column = c;
+          td.addEventListener("click", function () { showTable(false); selectItem(cell.item); });
+        }
+      });
+    });
+    holder.appendChild(table);
+    document.getElementById("to-table").addEventListener("click", function () { showTable(true); });
+  }
+  function showTable(on) {
+    if (!DATA.table) return;
+    if (on) setPlaying(false);
+    document.body.classList.toggle("table-mode", on);
+    document.getElementById("table-view").hidden = !on;
+    document.getElementById("to-table").hidden = on;
+    if (!on) draw();
+  }
+  function tableShown() { return Boolean(DATA.table) && document.body.classList.contains("table-mode"); }
+
   // --- playing ---------------------------------------------------------------------------
 
   let clock = null, owed = 0;
@@ -627,6 +675,8 @@
     });
     window.addEventListener("keydown", function (ev) {
       if (ev.target && ev.target.tagName === "SELECT") return;
+      if (ev.key === "t" && DATA.table) { showTable(!tableShown()); ev.preventDefault(); return; }
+      if (tableShown()) return;
       const big = ev.shiftKey ? 10 : 1;
       let done = true;
       switch (ev.key) {
@@ -659,7 +709,7 @@
   // #item=K&step=T opens item K at step T (the list pages link episodes this way).
   function fromHash() {
     const q = new URLSearchParams(location.hash.replace(/^#/, ""));
-    if (q.has("item")) selectItem(Number(q.get("item")) || 0);
+    if (q.has("item")) { showTable(false); selectItem(Number(q.get("item")) || 0); }
     if (q.has("step")) setStep(Number(q.get("step")) || 0);
   }
 
@@ -705,6 +755,8 @@
     },
     colours: function () { return JSON.parse(JSON.stringify(C)); },
     selected: function () { return view.selected ? Object.assign({}, view.selected) : null; },
+    // "table" while a matrix's or scorecard's table is shown, else "episode".
+    showing: function () { return tableShown() ? "table" : "episode"; },
   };
   Object.freeze(api);
   Object.defineProperty(window, "wolfpack", { value: api, writable: false, configurable: false });
@@ -717,6 +769,7 @@
     buildLegend();
     hookControls();
     selectItem(0);
+    if (DATA.table) { buildTable(); showTable(true); }
     fromHash();
     ready = true;
   } catch (err) {

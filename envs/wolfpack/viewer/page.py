@@ -47,11 +47,14 @@ def colours() -> dict[str, Any]:
     }
 
 
-def page_data(episodes: Sequence[dict], items: Sequence[dict] | None = None, panes: Sequence[str] | None = None, subtitle: str = "") -> dict[str, Any]:
+def page_data(episodes: Sequence[dict], items: Sequence[dict] | None = None, panes: Sequence[str] | None = None, subtitle: str = "", table: dict | None = None) -> dict[str, Any]:
     """The page's JSON: ``episodes`` are :func:`encode.encode_episode` objects; ``items`` list
-    ``{"label", "episodes": [index per pane]}`` (default: one item per episode)."""
+    ``{"label", "episodes": [index per pane]}`` (default: one item per episode); ``table``
+    (:mod:`wolfpack.viewer.tables`) is shown first, its cells opening items."""
     if items is None:
         items = [{"label": e["label"], "episodes": [k]} for k, e in enumerate(episodes)]
+    if not items:
+        raise ValueError("a page needs at least one episode")
     width = len(panes) if panes else 1
     for it in items:
         if len(it["episodes"]) != width or not all(0 <= k < len(episodes) for k in it["episodes"]):
@@ -64,6 +67,7 @@ def page_data(episodes: Sequence[dict], items: Sequence[dict] | None = None, pan
         "panes": list(panes) if panes else None,
         "items": list(items),
         "episodes": list(episodes),
+        "table": table,
     }
 
 

@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 import numpy as np
@@ -19,25 +20,51 @@ def _kind(o: dict) -> str:
 
 
 def play(policy: Any, params: dict, episodes: int, seed: int, threads: int | None = None) -> list[dict[str, np.ndarray]]:
-    """``policy`` (anything :func:`wolfpack.scorecard.as_policy` takes) driving the wolves for
-    ``episodes`` episodes from world seed ``seed``: the arrays of ``trajectory.npz`` per
-    episode (:mod:`wolfpack.logs`)."""
+    """``policy`` (anything :func:`wolfpack.scorecard.as_policy` takes) driving the wolves
+    against the targets' law of ``params`` for ``episodes`` episodes from world seed ``seed``:
+    the arrays of ``trajectory.npz`` per episode (:mod:`wolfpack.logs`)."""
+    return play_pairing(policy, None, params, episodes, seed, threads)
+
+
+def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: int, threads: int | None = None) -> list[dict[str, np.ndarray]]:
+    """``wolves`` against ``targets`` (each a law's name, a saved model, or None for the law in
+    ``params``), as :func:`play`. A model plays in its own action mode and observation layout
+    (as an opponent does); with a model on each side the targets' is called here, step by step,
+    on their observations."""
+    from wolfpack.opponents import bring_observation, mode_key
     from wolfpack.scorecard import as_policy
 
-    driver = as_policy(policy, "wolves")
-    batch = BatchEnv(params, num_envs=episodes, learners="none", seed=seed, autoreset=False, threads=threads, opponent=driver)
-    batch.reset(seed)  # episode 0 of worlds seed + e
+    p = json.loads(json.dumps(params))
+    sides = {side: (as_policy(who, side) if who is not None else None) for side, who in (("wolves", wolves), ("targets", targets))}
+    for side, driver in sides.items():
+        if driver is not None and not driver.learned:
+            p["policies"][side] = driver.law
+    learned = {side: d for side, d in sides.items() if d is not None and d.learned}
+    learner = None
+    if len(learned) == 2:  # one opponent per batch: the targets' model runs here
+        learner = learned.pop("targets")
+        if learner.action_mode is not None:
+            p["env"][mode_key("targets")] = learner.action_mode
+        bring_observation(p, learner.observation)
+    opponent = next(iter(learned.values()), None)
+    batch = BatchEnv(p, num_envs=episodes, learners="targets" if learner else "none", seed=seed, autoreset=False, threads=threads, opponent=opponent)
+    out = batch.reset(seed)  # episode 0 of worlds seed + e
     n, m = batch.n_wolves, batch.n_targets
     states: list[list[dict]] = [[batch.world_state(e)] for e in range(episodes)]
     ended: list[dict | None] = [None] * episodes
     while any(x is None for x in ended):
-        out = batch.step()
+        actions = None
+        if learner is not None:
+            obs = np.asarray(out["obs_targets"])
+            actions = learner.act(obs.reshape(-1, obs.shape[-1])).reshape(*obs.shape[:-1], 2)
+        out = batch.step(None, actions)
         for e in range(episodes):
             if ended[e] is not None:
                 continue
             states[e].append(batch.world_state(e))
             if int(out["outcome"][e]) != 0:
                 ended[e] = {k: np.array(v[e], copy=True) for k, v in out.items()}
+    params = p
     resolved = _core.validate_params(params, resolve=True)
     border = np.asarray(resolved["world"]["border"], dtype=np.float64)
     result = []
