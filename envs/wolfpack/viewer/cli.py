@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections import defaultdict
 from pathlib import Path
 from typing import Sequence
@@ -60,6 +61,9 @@ examples:
 
 #: Episodes that --compare plays without --episodes.
 COMPARE_EPISODES = 5
+#: Past this many episodes in one page, say so (the page grows by ~50 KB an episode).
+LARGE_PAGE_EPISODES = 100
+PROG = "wolfpack"
 
 
 def add_parser(sub, parser_class) -> argparse.ArgumentParser:
@@ -211,6 +215,8 @@ def cmd_view(args: argparse.Namespace, argv: Sequence[str]) -> None:
             title = args.title or "wolfpack: " + " vs ".join(panes)
         else:
             recs = collect(args.inputs, args.episodes)
+            if len(recs) > LARGE_PAGE_EPISODES:
+                print(f"{PROG}: note: {len(recs)} episodes in one page (~50 KB each in the documented scenario); --episodes K shows the first K of each run", file=sys.stderr)
             episodes = [encode_episode(r.arrays, r.params, r.label) for r in recs]
             items, panes = None, None
             outcomes: dict[str, int] = defaultdict(int)

@@ -302,6 +302,16 @@
     }
     ctx.setLineDash([]);
 
+    // Collisions, where and when (the episode ends at the step a wolf touched something),
+    // under the bodies so that the wolf stays visible on its mark.
+    if (ep.meta.collision_step >= 0 && t >= ep.meta.collision_step) {
+      for (let i = 0; i < ep.N; i++) {
+        if (!ep.meta.collisions[i]) continue;
+        const s = agentAt(ep, ep.meta.collision_step, i), c = toPx(tr, s[0], s[1]);
+        cross(ctx, c[0], c[1], 9);
+      }
+    }
+
     for (let j = 0; j < ep.M; j++) {
       const s = agentAt(ep, t, ep.N + j);
       bodyPath(ctx, tr, ep, s[0], s[1], s[2]);
@@ -312,15 +322,6 @@
       const s = agentAt(ep, t, i);
       bodyPath(ctx, tr, ep, s[0], s[1], s[2]);
       ctx.fillStyle = rgb(wolfColour(i)); ctx.fill();
-    }
-
-    // Collisions, where and when: the episode ends at the step a wolf touched something.
-    if (ep.meta.collision_step >= 0 && t >= ep.meta.collision_step) {
-      for (let i = 0; i < ep.N; i++) {
-        if (!ep.meta.collisions[i]) continue;
-        const s = agentAt(ep, ep.meta.collision_step, i), c = toPx(tr, s[0], s[1]);
-        cross(ctx, c[0], c[1], 7);
-      }
     }
 
     if (view.selected && view.selected.pane === p && view.selected.agent < ep.A) {
