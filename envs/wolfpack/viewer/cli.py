@@ -150,7 +150,8 @@ def recorded_side_by_side(inputs: Sequence[str], episodes: int | None) -> tuple[
 
 def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:
     """The policies of ``--compare`` played on the same episodes."""
-    from wolfpack import _core, cli, config
+    from wolfpack import _core, config
+    from wolfpack._checks import check_seed
     from wolfpack.opponents import Opponent
     from wolfpack.scorecard import as_policy
     from wolfpack.task import task_params
@@ -163,7 +164,7 @@ def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:
     params = task_params(args.task, overrides) if args.task else config.load_params(args.params, overrides)
     resolved = _core.validate_params(params, resolve=True)
     count = args.episodes or COMPARE_EPISODES
-    cli.check_seed(args.seed, "--seed", span=count)
+    check_seed(args.seed, "--seed", span=count)
     drivers: list[Opponent] = [as_policy(spec, "wolves") for spec in args.compare]
     names = [d.name for d in drivers]
     plays = [play(d, params, count, args.seed, args.threads) for d in drivers]

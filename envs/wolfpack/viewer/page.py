@@ -40,7 +40,7 @@ def colours() -> dict[str, Any]:
         "target": list(render.TARGET_COLOUR),
         "static_obstacle": list(render.STATIC_OBSTACLE_COLOUR),
         "moving_obstacle": list(render.MOVING_OBSTACLE_COLOUR),
-        "outcomes": {k: to_hex(v) for k, v in plots._OUTCOME_COLOURS.items()},
+        "outcomes": {k: to_hex(v) for k, v in plots.OUTCOME_COLOURS.items()},
         "sighting": "#4a7fb0",
         "arena": "#ffffff",
         "outside": "#d0d0d0",
