@@ -182,6 +182,8 @@ def _scenario_b(tmp_path: Path) -> Path:
         ("force over a foreign file", "not a page 'wolfpack view' wrote"),
         ("output is a folder", "is a folder"),
         ("nothing to show", "name runs"),
+        ("one run to compare", "name two or more runs"),
+        ("runs and policies", "recorded runs"),
     ],
 )
 def test_view_refuses_bad_input_in_one_line_and_writes_nothing(tmp_path, small_run, capsys, case, message):
@@ -210,6 +212,10 @@ def test_view_refuses_bad_input_in_one_line_and_writes_nothing(tmp_path, small_r
         out.mkdir()
     elif case == "nothing to show":
         args = []
+    elif case == "one run to compare":
+        args = [small_run, "--compare"]
+    elif case == "runs and policies":
+        args = [small_run, "--compare", "bvc"]
     before = out.read_bytes() if out.is_file() else None
     status, err = run(["view", *args, "--out", out], capsys)
     assert status == 2, (case, err)
@@ -358,7 +364,7 @@ def test_the_page_loads_cleanly_and_draws_the_recorded_states(open_page, small_r
     assert page.js("wolfpack.step()") == 0
     # another episode from the list
     page.page.click("#list li[data-item='2']")
-    assert page.js("wolfpack.item()") == 2
+    assert page.js("wolfpack.item()") == 2 and page.js("location.hash") == "#item=2"  # a link to it
     _assert_state(page.js("wolfpack.state(5)"), logs.load_trajectory(small_run / "episode_002" / "trajectory.npz"), 5)
     # the interface is read-only
     page.js("() => { try { wolfpack.state = null; } catch (e) {} }")

@@ -145,7 +145,10 @@ def recorded_side_by_side(inputs: Sequence[str], episodes: int | None) -> tuple[
                 raise ValueError(f"{recs[0].path} and {rec.path}: episodes of different scenarios (seed {seed} starts differently: arena, agents or obstacles); only runs of the same scenario compare")
         items.append({"label": f"seed {seed}", "episodes": list(range(len(encoded), len(encoded) + len(recs)))})
         encoded += [encode_episode(rec.arrays, rec.params, rec.label) for rec in recs]
-    return encoded, items, [_name(w) for w in inputs]
+    names = [_name(w) for w in inputs]
+    if len(set(names)) < len(names):  # runs/a/run and runs/b/run: the whole paths tell them apart
+        names = [str(w) for w in inputs]
+    return encoded, items, names
 
 
 def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:

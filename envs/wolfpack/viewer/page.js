@@ -464,7 +464,7 @@
       li.addEventListener("click", function () { selectItem(k); });
       list.appendChild(li);
     });
-    if (DATA.items.length < 2 && !DATA.always_list) list.style.display = "none";
+    if (DATA.items.length < 2) list.style.display = "none";
   }
 
   function buildPanes() {
@@ -580,6 +580,8 @@
     if (current && current.scrollIntoView) current.scrollIntoView({ block: "nearest" });
     buildPanes();
     draw();
+    // The address names the item shown, so that it can be shared (no reload, no history entry).
+    if (ready && history.replaceState) history.replaceState(null, "", "#item=" + k);
   }
 
   // --- the table whose cells open episodes (matrix, scorecard) -----------------------------
