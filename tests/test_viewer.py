@@ -629,3 +629,39 @@ def test_a_matrix_cell_opens_its_episode_in_the_browser(open_page, tmp_path, sma
     page.page.click("#to-table")
     assert page.js("wolfpack.showing()") == "table"
     assert page.problems == [] and page.requests == []
+
+
+@browser_test
+def test_the_hunting_points_are_those_the_capture_rule_checks(open_page, tmp_path):
+    # With capture.rule: hunting_points an episode is captured at the first step at which every
+    # wolf stands within arrive_tolerance of its hunting point: the points the page places must
+    # say so at that step.
+    out = tmp_path / "run"
+    cli_main(
+        ["hunt", "--wolves", "bvc", "--targets", "still", "--set", "capture.rule=hunting_points", "--set", "world.max_steps=100", "--episodes", "2", "--seed", "1", "--plots", "0", "--out", str(out)]
+    )
+    page = open_page(out / "index.html")
+    tol = PARAMS["capture"]["arrive_tolerance"]
+    checked = 0
+    for k in range(2):
+        arrays = logs.load_trajectory(out / f"episode_{k:03d}" / "trajectory.npz")
+        if str(arrays["outcome"]) != "captured":
+            continue
+        page.page.click(f"#list li[data-item='{k}']")
+        step = int(arrays["capture_step"])
+        points = page.js(f"wolfpack.hunting({step})")
+        assert sorted(p[2] for p in points) == list(range(arrays["wolves"].shape[1]))  # one per wolf
+        r = PARAMS["bvc"]["radius"]
+        target = arrays["targets"][step, 0, :2]
+        for x, y, i in points:
+            assert abs(np.hypot(x - target[0], y - target[1]) - r) < 2e-3  # on the ring
+            assert np.hypot(*(arrays["wolves"][step, i, :2] - [x, y])) <= tol + 2e-3, (k, i)
+        # distinct points, evenly spaced: n points, each 2π/n from the next
+        angles = sorted(np.arctan2(y - target[1], x - target[0]) % (2 * np.pi) for x, y, _ in points)
+        assert np.allclose(np.diff(angles), 2 * np.pi / len(points), atol=2e-3)
+        assert min(angles[0], 2 * np.pi - angles[-1]) < 2e-3  # the first at angle 0
+        checked += 1
+    assert checked >= 1
+    page.page.click("#list li[data-item='0']")
+    assert page.page.is_visible("#hunting-toggle")
+    assert page.problems == []

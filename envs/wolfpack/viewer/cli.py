@@ -159,7 +159,7 @@ def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:
     from wolfpack.scorecard import as_policy
     from wolfpack.task import task_params
     from wolfpack.viewer.encode import encode_episode
-    from wolfpack.viewer.play import play
+    from wolfpack.viewer.play import pairing_params, play
 
     overrides = dict(config.parse_override(text) for text in args.overrides)
     if args.targets:
@@ -174,7 +174,9 @@ def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:
     encoded, items = [], []
     for k in range(count):
         items.append({"label": f"seed {args.seed + k}", "episodes": list(range(len(encoded), len(encoded) + len(plays)))})
-        encoded += [encode_episode(p[k], resolved, f"{name}, seed {args.seed + k}") for name, p in zip(names, plays)]
+        for name, d, p in zip(names, drivers, plays):
+            shown, who = pairing_params(d, None, params)
+            encoded.append(encode_episode(p[k], shown, f"{name}, seed {args.seed + k}", who))
     where = f"task {args.task}" if args.task else (args.params or "the documented scenario")
     return encoded, items, names, f"{', '.join(names)} as the wolves vs {resolved['policies']['targets']} targets, {where}, seeds {args.seed}..{args.seed + count - 1}"
 

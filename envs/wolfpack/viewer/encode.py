@@ -136,10 +136,12 @@ def _int(arrays: Mapping[str, np.ndarray], key: str, default: int = -1) -> int:
     return int(np.asarray(arrays[key])) if key in arrays else default
 
 
-def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], label: str = "") -> dict[str, Any]:
+def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], label: str = "", drivers: Mapping[str, str] | None = None) -> dict[str, Any]:
     """One episode of ``trajectory.npz`` (checked by :func:`wolfpack.logs.check_trajectory`) as
-    the page's JSON object; ``params`` give the body size and sensing radii (the arrays carry
-    the border, Ts and capture distance)."""
+    the page's JSON object; ``params`` give the body size, sensing radii and laws (the arrays
+    carry the border, Ts and capture distance); ``drivers`` name who drove each side where
+    that was not the law of ``params`` (a model)."""
+    laws = {side: str(params["policies"][side]) for side in ("wolves", "targets")} | dict(drivers or {})
     wolves, targets = np.asarray(arrays["wolves"], dtype=np.float64), np.asarray(arrays["targets"], dtype=np.float64)
     rows, n, m = wolves.shape[0], wolves.shape[1], targets.shape[1]
     agents = np.concatenate([wolves, targets], axis=1)
@@ -166,6 +168,11 @@ def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], 
         # The page casts each agent's lidar from its state as the core does (without the
         # learners' noise): ray k at heading + 2πk/rays, to the first obstacle or wall, at most range.
         "lidar": [int(params["env"]["lidar"]["rays"]), float(params["env"]["lidar"]["range"])],
+        # Where the hunting points mean something (the bvc law aims at them, the capture rule
+        # hunting_points asks for them), their ring's radius: the page places them from the state.
+        "hunting_radius": float(params["bvc"]["radius"]) if laws["wolves"] == "bvc" or params["capture"]["rule"] == "hunting_points" else None,
+        "wolf_law": laws["wolves"],
+        "target_law": laws["targets"],
         "capture_step": _int(arrays, "capture_step"),
         "target_capture_step": ends,
         "cornered_step": _int(arrays, "cornered_step"),

@@ -137,6 +137,63 @@
     return out;
   }
 
+  // --- hunting points, placed from the state as the capture rule hunting_points and the bvc
+  // law place them (geometry/ring.rs): each wolf hunts its nearest target still hunted (ties:
+  // the lowest index); the n wolves of a target share n points evenly spaced on the ring of
+  // radius bvc.radius around it, the first at angle 0, assigned by least total distance.
+  // (bvc aims at the pack's last sighting of the target, the same point while one senses it.)
+
+  function leastTotal(cost) { // exact minimum-cost assignment over subsets; cost[i][k]
+    const n = cost.length, size = 1 << n, best = new Float64Array(size).fill(Infinity), from = new Int32Array(size);
+    best[0] = 0;
+    for (let mask = 0; mask < size; mask++) {
+      if (best[mask] === Infinity) continue;
+      let i = 0;
+      for (let m = mask; m; m &= m - 1) i++; // wolf i takes the next point
+      if (i >= n) continue;
+      for (let k = 0; k < n; k++) {
+        if (mask & (1 << k)) continue;
+        const next = mask | (1 << k), c = best[mask] + cost[i][k];
+        if (c < best[next]) { best[next] = c; from[next] = k; }
+      }
+    }
+    const out = new Array(n);
+    let mask = size - 1;
+    for (let i = n - 1; i >= 0; i--) { const k = from[mask]; out[i] = k; mask &= ~(1 << k); }
+    return out;
+  }
+
+  // [[x, y, wolf], ...]: each wolf's hunting point at step t (none for a wolf with no target).
+  function hunting(ep, t) {
+    const r = ep.meta.hunting_radius;
+    if (!r) return [];
+    const hunts = [];
+    for (let i = 0; i < ep.N; i++) {
+      const w = agentAt(ep, t, i);
+      let best = -1, bestD = Infinity;
+      for (let j = 0; j < ep.M; j++) {
+        // a target's points stay at the step of its capture: they are what the capture met
+        const end = ep.meta.target_capture_step[j];
+        if (end >= 0 && end < t) continue;
+        const s = agentAt(ep, t, ep.N + j), d = Math.hypot(s[0] - w[0], s[1] - w[1]);
+        if (d < bestD) { best = j; bestD = d; }
+      }
+      hunts.push(best);
+    }
+    const out = [];
+    for (let j = 0; j < ep.M; j++) {
+      const wolves = [];
+      hunts.forEach(function (h, i) { if (h === j) wolves.push(i); });
+      if (!wolves.length || wolves.length > 16) continue;
+      const s = agentAt(ep, t, ep.N + j), n = wolves.length, points = [];
+      for (let k = 0; k < n; k++) points.push([s[0] + r * Math.cos(2 * Math.PI * k / n), s[1] + r * Math.sin(2 * Math.PI * k / n)]);
+      // whole micrometres, as the core compares them
+      const cost = wolves.map(function (i) { const w = agentAt(ep, t, i); return points.map(function (q) { return Math.round(Math.hypot(w[0] - q[0], w[1] - q[1]) / 1e-6); }); });
+      leastTotal(cost).forEach(function (k, a) { out.push([points[k][0], points[k][1], wolves[a]]); });
+    }
+    return out.sort(function (a, b) { return a[2] - b[2]; });
+  }
+
   function rgb(c) { return "rgb(" + c[0] + "," + c[1] + "," + c[2] + ")"; }
   function rgba(c, a) { return "rgba(" + c[0] + "," + c[1] + "," + c[2] + "," + a + ")"; }
   function wolfColour(i) { return C.wolves[i % C.wolves.length]; }
@@ -147,7 +204,7 @@
   const view = {
     item: 0, step: 0, playing: false, speed: 1,
     zoom: 1, cx: null, cy: null, // the world point at the panes' centre (null: the arena's)
-    trails: true, sensing: false, links: false, lidar: true,
+    trails: true, sensing: false, links: false, lidar: true, hunting: true,
     selected: null, // {pane, agent}
   };
   const panes = []; // {div, canvas, caption, index (episode), transform}
@@ -293,6 +350,19 @@
       });
     }
 
+    // The hunting points, each joined to its wolf.
+    if (view.hunting && ep.meta.hunting_radius) {
+      ctx.lineWidth = 1;
+      for (const [x, y, i] of hunting(ep, t)) {
+        const q = toPx(tr, x, y), s = agentAt(ep, t, i), c = toPx(tr, s[0], s[1]);
+        ctx.strokeStyle = rgba(wolfColour(i), 0.7); ctx.setLineDash([3, 3]);
+        ctx.beginPath(); ctx.moveTo(c[0], c[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
+        ctx.setLineDash([]); ctx.strokeStyle = rgb(wolfColour(i)); ctx.lineWidth = 1.5;
+        ctx.beginPath(); ctx.arc(q[0], q[1], 3.5, 0, 2 * Math.PI); ctx.stroke();
+        ctx.lineWidth = 1;
+      }
+    }
+
     // The capture ring around every target still hunted.
     ctx.setLineDash([5, 4]); ctx.lineWidth = 1.2; ctx.strokeStyle = rgb(C.target);
     for (let j = 0; j < ep.M; j++) {
@@ -394,18 +464,23 @@
     for (let j = 0; j < ep.A; j++) if (j !== a && linked(ep, t, a, j)) senses.push(agentName(ep, j));
     const rows = [
       ["step", t + (panes.length > 1 ? " (" + panes[p].name + ")" : "")],
+      ["law", a < ep.N ? ep.meta.wolf_law : ep.meta.target_law],
       ["position", s[0].toFixed(3) + ", " + s[1].toFixed(3) + " m"],
       ["heading", s[2].toFixed(3) + " rad (" + (s[2] * 180 / Math.PI).toFixed(1) + "\u00b0)"],
       ["speed", s[3].toFixed(3) + " m/s"],
       ["turn rate", s[4].toFixed(3) + " rad/s"],
       ["energy", ep.energy[t * ep.A + a].toFixed(3) + " J"],
       ["senses", t === 0 ? "(from step 1)" : (senses.join(", ") || "nothing")],
-      ["contacts", ep.meta.collisions[a] + " steps over the episode"],
+      ["contacts", ep.meta.collisions[a] + " steps in contact, over the episode"],
     ];
     const rays = lidar(ep, t, a);
     if (rays.length) {
       const hits = rays.filter(function (d) { return d < ep.meta.lidar[1]; });
       rows.push(["lidar", rays.length + " rays, " + (hits.length ? hits.length + " hit, nearest " + Math.min.apply(null, hits).toFixed(2) + " m" : "nothing within " + ep.meta.lidar[1] + " m")]);
+    }
+    if (a < ep.N) {
+      const point = hunting(ep, t).find(function (h) { return h[2] === a; });
+      if (point) rows.push(["hunting point", point[0].toFixed(2) + ", " + point[1].toFixed(2) + " m (" + Math.hypot(point[0] - s[0], point[1] - s[1]).toFixed(2) + " m away)"]);
     }
     if (a >= ep.N) {
       const end = ep.meta.target_capture_step[a - ep.N];
@@ -486,6 +561,8 @@
       panes.push({ div: div, canvas: canvas, caption: caption, name: name, transform: null });
       hookCanvas(canvas, p);
     });
+    const hunted = item().episodes.some(function (e) { return DATA.episodes[e].hunting_radius; });
+    document.getElementById("hunting-toggle").style.display = hunted ? "" : "none";
   }
 
   function hookCanvas(canvas, p) {
@@ -667,7 +744,7 @@
     document.getElementById("zoom-in").addEventListener("click", function () { zoomAt(0, 1.25); });
     document.getElementById("zoom-out").addEventListener("click", function () { zoomAt(0, 1 / 1.25); });
     document.getElementById("zoom-reset").addEventListener("click", resetView);
-    for (const [id, key] of [["show-trails", "trails"], ["show-sensing", "sensing"], ["show-links", "links"], ["show-lidar", "lidar"]]) {
+    for (const [id, key] of [["show-trails", "trails"], ["show-sensing", "sensing"], ["show-links", "links"], ["show-lidar", "lidar"], ["show-hunting", "hunting"]]) {
       const box = document.getElementById(id);
       view[key] = box.checked;
       box.addEventListener("change", function () { view[key] = box.checked; draw(); });
@@ -749,6 +826,12 @@
     toScreen: function (x, y, pane) {
       const p = checkPane(pane), r = panes[p].canvas.getBoundingClientRect(), q = toPx(panes[p].transform, x, y);
       return [r.left + q[0], r.top + q[1]];
+    },
+    // [[x, y, wolf], ...]: the wolves' hunting points at `step` ([] where the law and the
+    // capture rule have none).
+    hunting: function (step, pane) {
+      const ep = paneEpisode(checkPane(pane));
+      return hunting(ep, Math.max(0, Math.min(ep.rows - 1, Math.round(step))));
     },
     // The lidar distances (m) of agent `agent` (wolves first, then targets) at `step`.
     lidar: function (step, agent, pane) {

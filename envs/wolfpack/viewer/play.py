@@ -26,12 +26,8 @@ def play(policy: Any, params: dict, episodes: int, seed: int, threads: int | Non
     return play_pairing(policy, None, params, episodes, seed, threads)
 
 
-def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: int, threads: int | None = None) -> list[dict[str, np.ndarray]]:
-    """``wolves`` against ``targets`` (each a law's name, a saved model, or None for the law in
-    ``params``), as :func:`play`. A model plays in its own action mode and observation layout
-    (as an opponent does); with a model on each side the targets' is called here, step by step,
-    on their observations."""
-    from wolfpack.opponents import bring_observation, mode_key
+def _drivers(wolves: Any, targets: Any, params: dict) -> tuple[dict, dict]:
+    """Each side's driver (None: the law in ``params``) and the params with the laws set."""
     from wolfpack.scorecard import as_policy
 
     p = json.loads(json.dumps(params))
@@ -39,6 +35,26 @@ def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: i
     for side, driver in sides.items():
         if driver is not None and not driver.learned:
             p["policies"][side] = driver.law
+    return sides, p
+
+
+def pairing_params(wolves: Any, targets: Any, params: dict) -> tuple[dict, dict[str, str]]:
+    """The resolved params ``wolves`` and ``targets`` play in (a law sets its side's
+    ``policies`` key) and who drives each side (a law's or a model's name), for what the page
+    says about the episodes."""
+    sides, p = _drivers(wolves, targets, params)
+    resolved = _core.validate_params(p, resolve=True)
+    return resolved, {side: (d.name if d is not None and d.learned else resolved["policies"][side]) for side, d in sides.items()}
+
+
+def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: int, threads: int | None = None) -> list[dict[str, np.ndarray]]:
+    """``wolves`` against ``targets`` (each a law's name, a saved model, or None for the law in
+    ``params``), as :func:`play`. A model plays in its own action mode and observation layout
+    (as an opponent does); with a model on each side the targets' is called here, step by step,
+    on their observations."""
+    from wolfpack.opponents import bring_observation, mode_key
+
+    sides, p = _drivers(wolves, targets, params)
     learned = {side: d for side, d in sides.items() if d is not None and d.learned}
     learner = None
     if len(learned) == 2:  # one opponent per batch: the targets' model runs here

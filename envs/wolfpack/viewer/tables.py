@@ -51,7 +51,7 @@ def matrix_page(path: str | Path, episodes: int = 1, threads: int | None = None)
     """The cross-play matrix as a table (wolves × targets, capture rates) whose cells open
     ``episodes`` example episodes of that pairing (the matrix's first seeds)."""
     from wolfpack import _core
-    from wolfpack.viewer.play import play_pairing
+    from wolfpack.viewer.play import pairing_params, play_pairing
 
     doc, file = _read_json(path, "matrix.json", ("wolves", "targets", "cells", "params", "seed"))
     params = _core.validate_params(doc["params"], resolve=True)
@@ -79,7 +79,8 @@ def matrix_page(path: str | Path, episodes: int = 1, threads: int | None = None)
                 continue
             played = play_pairing(driver(w, "wolves"), driver(t, "targets"), params, episodes, int(doc["seed"]), threads)
             first = len(encoded)
-            encoded += [encode_episode(a, params, f"{w} vs {t}, seed {int(a['seed'])}") for a in played]
+            shown, who = pairing_params(driver(w, "wolves"), driver(t, "targets"), params)
+            encoded += [encode_episode(a, shown, f"{w} vs {t}, seed {int(a['seed'])}", who) for a in played]
             for k in range(len(played)):
                 items.append({"label": f"{w} vs {t}, seed {int(doc['seed']) + k}", "episodes": [first + k]})
             lo, hi = cell.get("capture_rate_ci95") or (None, None)
@@ -115,7 +116,7 @@ def scorecard_page(path: str | Path, policy: str | None = None, episodes: int = 
     from wolfpack import _core
     from wolfpack.opponents import SCRIPTED_LAWS
     from wolfpack.task import task_params
-    from wolfpack.viewer.play import play_pairing
+    from wolfpack.viewer.play import pairing_params, play_pairing
 
     card, file = _read_json(path, "scorecard.json", ("policy", "side", "tasks", "first_seed"))
     side = card["side"]
@@ -138,7 +139,8 @@ def scorecard_page(path: str | Path, policy: str | None = None, episodes: int = 
         params = _core.validate_params(task_params(task, card.get("overrides") or {}), resolve=True)
         played = play_pairing(driver if side == "wolves" else None, driver if side == "targets" else None, params, episodes, seed, threads)
         first = len(encoded)
-        encoded += [encode_episode(a, params, f"{task}, seed {int(a['seed'])}") for a in played]
+        shown, who = pairing_params(driver if side == "wolves" else None, driver if side == "targets" else None, params)
+        encoded += [encode_episode(a, shown, f"{task}, seed {int(a['seed'])}", who) for a in played]
         for k in range(len(played)):
             items.append({"label": f"{task}, seed {seed + k}", "episodes": [first + k]})
         item = len(items) - len(played)
