@@ -14,12 +14,12 @@ Write one self-contained HTML page that plays hunts in the browser: the data, th
 the styles are inside the file (no server, no network; it opens offline from disk or as a CI
 artefact). The page draws the arena, the obstacles (static and moving circles, rotating and
 drifting polygons), wolves and targets with their headings and trails, sensing radii, the
-capture ring and collisions; it plays, pauses, steps, scrubs along a timeline of the outcome's
-events (first sighting, cornered, capture, collision), zooms and pans; clicking an agent shows
-its state at that step. Keys: Space play/pause, Left/Right step (Shift: 10), Home/End, + - 0
+capture ring, collisions and bvc's hunting points; it plays, pauses, steps, scrubs along a
+timeline of the outcome's events (first sighting, cornered, capture, collision), zooms and
+pans; clicking an agent shows its state at that step and its lidar rays. Keys: Space play/pause, Left/Right step (Shift: 10), Home/End, + - 0
 zoom, [ ] previous/next episode, < > speed.
 
-Three ways:
+Five ways:
   wolfpack view RUN_OR_NPZ... --out FILE.html
       the episodes of run folders of 'wolfpack hunt --out' (their episode_NNN/trajectory.npz;
       the first --episodes K of each), episode folders or trajectory.npz files, as a list
