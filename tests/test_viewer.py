@@ -471,6 +471,12 @@ def test_clicking_a_wolf_shows_its_state(open_page, small_run):
     page.page.keyboard.press("ArrowRight")
     x, y = arrays["wolves"][13, 0, :2]
     assert f"{x:.3f}, {y:.3f} m" in page.page.inner_text("#info")
+    # the keys zoom around it: it stays where it is drawn
+    scale = lambda: page.js(f"wolfpack.toScreen({x} + 1, {y})[0] - wolfpack.toScreen({x}, {y})[0]")  # noqa: E731
+    before, zoom = page.js(f"wolfpack.toScreen({x}, {y})"), scale()
+    page.page.keyboard.press("+")
+    assert np.allclose(page.js(f"wolfpack.toScreen({x}, {y})"), before, atol=0.5) and scale() > 1.2 * zoom
+    assert page.problems == []
 
 
 @browser_test

@@ -618,6 +618,19 @@
     draw();
   }
 
+  // Zoom from the keys and buttons: around the clicked agent when there is one, so that it stays
+  // in view; else around the panes' centre.
+  function zoomKey(factor) {
+    const sel = view.selected;
+    if (sel && sel.pane < panes.length && panes[sel.pane].transform) {
+      const ep = paneEpisode(sel.pane), s = agentAt(ep, Math.min(view.step, ep.rows - 1), sel.agent);
+      const q = toPx(panes[sel.pane].transform, s[0], s[1]);
+      zoomAt(sel.pane, factor, q[0], q[1]);
+    } else {
+      zoomAt(0, factor);
+    }
+  }
+
   function buildLegend() {
     const legend = document.getElementById("legend");
     const entries = [["first sighting", C.sighting], ["cornered", C.outcomes.cornered], ["capture", C.outcomes.captured], ["collision", C.outcomes.collision], ["end", "#555"]];
@@ -741,14 +754,26 @@
     document.getElementById("forward").addEventListener("click", function () { setPlaying(false); setStep(view.step + 1); });
     document.getElementById("scrub").addEventListener("input", function (ev) { setStep(Number(ev.target.value)); });
     document.getElementById("speed").addEventListener("change", function (ev) { view.speed = Number(ev.target.value); });
-    document.getElementById("zoom-in").addEventListener("click", function () { zoomAt(0, 1.25); });
-    document.getElementById("zoom-out").addEventListener("click", function () { zoomAt(0, 1 / 1.25); });
+    document.getElementById("zoom-in").addEventListener("click", function () { zoomKey(1.25); });
+    document.getElementById("zoom-out").addEventListener("click", function () { zoomKey(1 / 1.25); });
     document.getElementById("zoom-reset").addEventListener("click", resetView);
     for (const [id, key] of [["show-trails", "trails"], ["show-sensing", "sensing"], ["show-links", "links"], ["show-lidar", "lidar"], ["show-hunting", "hunting"]]) {
       const box = document.getElementById(id);
       view[key] = box.checked;
       box.addEventListener("change", function () { view[key] = box.checked; draw(); });
     }
+    // Hovering the timeline names the events under the pointer.
+    document.getElementById("timeline").addEventListener("mousemove", function (ev) {
+      const r = ev.target.getBoundingClientRect(), last = Math.max(1, lastStep());
+      const step = Math.round((ev.clientX - r.left - 8) / (r.width - 16) * last), near = Math.max(1, last / 100);
+      const lines = [];
+      for (let p = 0; p < item().episodes.length; p++) {
+        for (const e of events(paneEpisode(p))) {
+          if (Math.abs(e.step - step) <= near) lines.push((panes.length > 1 ? panes[p].name + ": " : "") + e.kind + " at step " + e.step);
+        }
+      }
+      ev.target.title = lines.length ? lines.join("\n") : "step " + Math.max(0, Math.min(last, step)) + " (click to go there)";
+    });
     document.getElementById("timeline").addEventListener("click", function (ev) {
       const r = ev.target.getBoundingClientRect();
       setStep((ev.clientX - r.left - 8) / (r.width - 16) * lastStep());
@@ -765,8 +790,8 @@
         case "ArrowLeft": setPlaying(false); setStep(view.step - big); break;
         case "Home": setStep(0); break;
         case "End": setStep(lastStep()); break;
-        case "+": case "=": zoomAt(0, 1.25); break;
-        case "-": case "_": zoomAt(0, 1 / 1.25); break;
+        case "+": case "=": zoomKey(1.25); break;
+        case "-": case "_": zoomKey(1 / 1.25); break;
         case "0": resetView(); break;
         case "]": case "PageDown": selectItem(view.item + 1); break;
         case "[": case "PageUp": selectItem(view.item - 1); break;
