@@ -354,6 +354,9 @@ def test_the_page_loads_cleanly_and_draws_the_recorded_states(open_page, small_r
         page.scrub(step)
         assert page.js("wolfpack.step()") == step
         _assert_state(page.js("wolfpack.state(wolfpack.step())"), arrays, step)
+    # the page reads back exactly what the Python decoder does
+    twin = encode.decode_episode(page_json(small_run / "index.html")["episodes"][0])
+    assert page.js("wolfpack.state(17).wolves") == twin["wolves"][17, :, :3].tolist()
     # the keys: one step back, ten forward, the ends
     page.scrub(20)
     page.page.keyboard.press("ArrowLeft")

@@ -109,8 +109,8 @@ def unpack_series(text: str, rows: int, shape: tuple[int, ...], steps: tuple[flo
     width = int(np.prod(shape))
     d = _read_varints(base64.b64decode(text), rows * width).reshape(width, rows).T
     q = np.cumsum(d, axis=0)
-    grid = np.broadcast_to(np.asarray(steps, dtype=np.float64), shape[-1:])
-    return q.reshape(rows, *shape) * grid
+    per = np.rint(1.0 / np.broadcast_to(np.asarray(steps, dtype=np.float64), shape[-1:]))
+    return q.reshape(rows, *shape) / per  # 3413 / 1000 is 3.413, as the page reads it
 
 
 def pack_bits(flags: np.ndarray) -> str:

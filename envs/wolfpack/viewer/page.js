@@ -21,9 +21,11 @@
     return out;
   }
 
-  // rows x width values, series by series in the stream; returned row-major, times the grid.
+  // rows x width values, series by series in the stream; returned row-major, on the grid (as
+  // integers over the grid's inverse, so that 3413 mm reads 3.413, not 3.4130000000000003).
   function series(text, rows, width, grid) {
     const bytes = bytesOf(text);
+    const per = grid.map(function (g) { return Math.round(1 / g); });
     const out = new Float64Array(rows * width);
     let p = 0;
     for (let s = 0; s < width; s++) {
@@ -37,7 +39,7 @@
           mul *= 128;
         } while (b & 128);
         acc += v % 2 ? -(v + 1) / 2 : v / 2;
-        out[t * width + s] = acc * grid[s % grid.length];
+        out[t * width + s] = acc / per[s % per.length];
       }
     }
     if (p !== bytes.length) throw new Error("episode data longer than its shape");
