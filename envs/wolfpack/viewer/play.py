@@ -1,7 +1,9 @@
-"""Policies played on the same episodes for ``wolfpack view --compare``: each drives the wolves
-(a law by name, or a saved model) against the scenario's targets, episode k in world seed
-``S + k`` (:func:`wolfpack.evaluation.rollout`'s numbering: the very starts ``wolfpack hunt
---seed S`` plays), and every state is recorded as ``trajectory.npz`` records it."""
+"""Policies played again for the viewer: ``wolfpack view --compare`` (each policy drives the
+wolves against the scenario's targets) and the example episodes of the matrix and scorecard
+pages (a wolf policy against a target policy, either a law or a saved model). Episode k is
+world seed ``S + k``'s first (:func:`wolfpack.evaluation.rollout`'s numbering: the very starts
+``wolfpack hunt --seed S`` plays, and those the matrix and scorecards measured), and every state
+is recorded as ``trajectory.npz`` records it."""
 
 from __future__ import annotations
 
@@ -80,8 +82,7 @@ def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: i
             states[e].append(batch.world_state(e))
             if int(out["outcome"][e]) != 0:
                 ended[e] = {k: np.array(v[e], copy=True) for k, v in out.items()}
-    params = p
-    resolved = _core.validate_params(params, resolve=True)
+    resolved = _core.validate_params(p, resolve=True)
     border = np.asarray(resolved["world"]["border"], dtype=np.float64)
     result = []
     for e in range(episodes):
