@@ -343,7 +343,7 @@ def test_empty_out_and_too_many_threads_are_usage_errors(tmp_path, args):
 def test_a_finished_run_has_no_marker_and_a_failed_fresh_run_leaves_nothing(cli, tmp_path):
     out = tmp_path / "run"
     assert cli("hunt", "--episodes", "2", "--plots", "0", "--out", out, *SHORT).returncode == 0
-    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "episode_000", "episode_001", "summary.json", "summary.png"]
+    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "episode_000", "episode_001", "index.html", "summary.json", "summary.png"]
     # A spawn that fails while running, into a new nested folder: no folder is left behind.
     assert_clean_failure(cli("hunt", "--episodes", "1", "--out", tmp_path / "a" / "b", "--set", "obstacles.static_polygons=500"), "spawn")
     # ... and into an existing empty folder: it stays, empty.
@@ -360,7 +360,7 @@ def test_force_replaces_an_interrupted_run_and_its_marker(cli, tmp_path):
     outputs.write_manifest(out, "wolfpack hunt", ["episode_007", logs.INCOMPLETE_NAME])  # what its Ctrl-C leaves
     assert_clean_failure(cli("hunt", "--episodes", "1", "--out", out, *SHORT), "--force")
     assert cli("hunt", "--episodes", "1", "--plots", "0", "--out", out, "--force", *SHORT).returncode == 0
-    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "episode_000", "summary.json", "summary.png"]
+    assert sorted(p.name for p in out.iterdir()) == [outputs.MANIFEST_NAME, "episode_000", "index.html", "summary.json", "summary.png"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no temporary sibling left
 
 

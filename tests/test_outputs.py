@@ -103,7 +103,7 @@ def test_an_interrupted_hunt_is_the_commands_own_and_force_replaces_it(tmp_path)
     refused(failed, "spawn")
     assert files(out) == before
     assert wolfpack(*HUNT, "--out", out, "--force").returncode == 0
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "episode_000", "episode_001", "summary.json", "summary.png"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "episode_000", "episode_001", "index.html", "summary.json", "summary.png"]
 
 
 def test_the_helper_checks_before_writing_and_stages_inside_the_folder(tmp_path):

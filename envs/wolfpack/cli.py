@@ -102,6 +102,9 @@ so every file present is complete.
                                       agent); written
                                       last, so a failed run never leaves one behind
   DIR/summary.png                     outcome counts and the histogram of capture steps
+  DIR/index.html                      (unless --no-html) the recorded episodes (the first 100
+                                      at most) with their outcomes, in one self-contained page
+                                      that plays them in the browser ('wolfpack view --help')
   DIR/episode_KKK/trajectory.npz      (first --trajectories episodes: 20 by default, or --plots
                                       when larger; 'all' for every one, ~80 KB each)
                                       float64 wolves [T+1,N,5] and targets [T+1,M,5]
@@ -162,6 +165,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"{PROG}: error: {self.prog.removeprefix(PROG).strip() or 'usage'}: {message} (see --help)\n")
 
 
+#: Episodes that `hunt --out DIR` puts in DIR/index.html at most (about 50 KB each in the
+#: documented scenario); `wolfpack view DIR --episodes K` writes a page of more.
+INDEX_EPISODES = 100
 #: Episodes whose trajectory.npz `hunt --out` keeps unless told (--trajectories).
 TRAJECTORIES_DEFAULT = 20
 #: Bytes of one compressed trajectory.npz of the documented scenario (300 steps, 6 agents,
@@ -217,10 +223,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help', 'wolfpack benchmark --help' or 'wolfpack dataset --help' for details.",
+        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help', 'wolfpack benchmark --help', 'wolfpack dataset --help' or 'wolfpack view --help' for details.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,bench,train,benchmark,dataset}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,view,bench,train,benchmark,dataset}", parser_class=_Parser)
 
     hunt = sub.add_parser(
         "hunt", help="run scripted episodes; print a summary, write logs and plots", description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -246,7 +252,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--force",
         action="store_true",
         help="with --out DIR holding an earlier run: replace that run's files "
-        "(summary.json, summary.png, episode_*/) once this run has finished; "
+        "(summary.json, summary.png, index.html, episode_*/) once this run has finished; "
         "a DIR holding files 'wolfpack hunt' did not write is refused, and a run that fails or is interrupted leaves the earlier one as it was",
     )
     hunt.add_argument(
@@ -264,6 +270,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --out, save trajectory.npz (what 'wolfpack replay' re-renders) for the first N episodes only (default: 20, or --plots when larger; "
         "'all': every episode, about 80 KB each in the documented scenario); summary.json covers every episode either way",
     )
+    hunt.add_argument(
+        "--no-html",
+        action="store_true",
+        help=f"with --out, no index.html (by default the run's recorded episodes, the first {INDEX_EPISODES} at most, in one page that plays them in the browser: 'wolfpack view --help')",
+    )
     hunt.add_argument("--video", action="store_true", help="with --out, also write episode.mp4 (one frame per state, 10 fps = real time) for the episodes that get plots (--plots)")
     hunt.add_argument("--json", action="store_true", help="print one JSON object (the summary) on stdout instead of a table")
     hunt.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help=f"worker threads, 1 to {MAX_THREADS} (default: all cores); results do not depend on it")
@@ -279,6 +290,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--frames", metavar="T", type=_int_at_least(0), nargs="+", default=[], help="also write the frames of these steps as frame_TTT.png (a step past the end: the last frame)")
     replay.add_argument("--size", metavar="PX", type=_int_at_least(16), default=512, help="video frame width and height in pixels (default: 512)")
     replay.add_argument("--trail", metavar="STEPS", type=_int_at_least(0), default=40, help="trail length in steps (default: 40)")
+    replay.add_argument("--html", action="store_true", help="also write episode.html, a self-contained page that plays the episode in the browser ('wolfpack view --help')")
     replay.set_defaults(func=cmd_replay)
 
     bench = sub.add_parser("bench", help="throughput of scripted stepping (env-steps/s)", description=BENCH_DESCRIPTION, epilog=BENCH_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -299,6 +311,9 @@ def build_parser() -> argparse.ArgumentParser:
     from wolfpack.dataset_cli import add_parser as add_dataset
 
     add_dataset(sub, _Parser)
+    from wolfpack.viewer.cli import add_parser as add_view
+
+    add_view(sub, _Parser)
     return parser
 
 
@@ -438,7 +453,7 @@ class RunWriter:
     first episode, and ``summary.json`` is written last, by :meth:`finish`. Every file is written
     under a temporary name and renamed: a file under its final name is complete."""
 
-    def __init__(self, out: Path, resolved: dict, plots: int, video: bool = False, trajectories: int | None = None):
+    def __init__(self, out: Path, resolved: dict, plots: int, video: bool = False, trajectories: int | None = None, html: bool = True):
         # Imported here: matplotlib is slow to import and only needed with --out.
         from wolfpack import plots as plotting
 
@@ -446,6 +461,8 @@ class RunWriter:
         self.out, self.resolved, self.plots, self.video = out, resolved, plots, video
         self.trajectories = default_trajectories(plots) if trajectories is None else trajectories
         self.count = 0  # episodes finished
+        #: The recorded episodes index.html will show, packed as they arrive (~50 KB each).
+        self.pages: list[dict] | None = [] if html else None
         (out / logs.SUMMARY_NAME).unlink(missing_ok=True)
 
     @property
@@ -464,6 +481,10 @@ class RunWriter:
         folder = logs.episode_dir(self.out, k)
         folder.mkdir(exist_ok=True)
         arrays = logs.trajectory_arrays(result, self.resolved)
+        if self.pages is not None and len(self.pages) < INDEX_EPISODES:
+            from wolfpack.viewer.encode import encode_episode
+
+            self.pages.append(encode_episode(arrays, self.resolved, f"episode_{k:03d} (seed {int(result['seed'])})"))
         if k < self.trajectories:
             try:
                 logs.write_trajectory(folder / "trajectory.npz", arrays)
@@ -487,11 +508,29 @@ class RunWriter:
         with logs.atomic_path(self.out / "summary.png", keep_suffix=True) as tmp:
             self.plotting.plot_summary(summary["episodes_detail"], tmp)
 
+    def write_index(self, summary: dict, title: str = "wolfpack hunt") -> None:
+        """``index.html``: the recorded episodes with their outcomes, played in the browser
+        (:mod:`wolfpack.viewer`); none when no episode was recorded or with ``--no-html``."""
+        if not self.pages:
+            return
+        from wolfpack.viewer.page import page_data, write_page
+
+        pol, w = self.resolved["policies"], self.resolved["world"]
+        details = summary.get("episodes_detail") or []
+        n = summary.get("episodes", len(details))
+        outcomes = [d["outcome"] for d in details]
+        counts = ", ".join(f"{outcomes.count(o)} {o}" for o in self.plotting.OUTCOMES if o in outcomes)
+        seeds = f", seeds {details[0]['seed']}..{details[-1]['seed']}" if details else ""
+        shown = f"the first {len(self.pages)} of {n} episodes" if len(self.pages) < n else f"all {n} episodes"
+        subtitle = f"{w['wolves']} {pol['wolves']} wolves vs {w['targets']} {pol['targets']} target(s){seeds}: {counts}; showing {shown}"
+        write_page(self.out / "index.html", page_data(self.pages, subtitle=subtitle), title)
+
     def write_summary(self, summary: dict) -> None:
         logs.write_json_atomic(self.out / logs.SUMMARY_NAME, summary)
 
     def finish(self, summary: dict) -> None:
         self.plot_summary(summary)
+        self.write_index(summary)
         self.write_summary(summary)
 
 
@@ -559,12 +598,12 @@ class RunDir:
 
 def clear_run(out: Path) -> None:
     """Deletes what ``wolfpack hunt --out`` writes (summary.json and its temporary,
-    summary.png, the INCOMPLETE marker, episode_NNN/ folders), so that no episode of an earlier
+    summary.png, index.html, the INCOMPLETE marker, episode_NNN/ folders), so that no episode of an earlier
     run sits beside a new run's; anything else in ``out`` is left alone. summary.json goes
     first, so that a run is never left looking complete with files missing."""
     import re
 
-    for name in (logs.SUMMARY_NAME, f".{logs.SUMMARY_NAME}.tmp", "summary.png", ".summary.tmp.png", logs.INCOMPLETE_NAME, f".{logs.INCOMPLETE_NAME}.tmp"):
+    for name in (logs.SUMMARY_NAME, f".{logs.SUMMARY_NAME}.tmp", "summary.png", ".summary.tmp.png", "index.html", ".index.tmp.html", logs.INCOMPLETE_NAME, f".{logs.INCOMPLETE_NAME}.tmp"):
         (out / name).unlink(missing_ok=True)
     for child in out.iterdir():
         if child.is_dir() and re.fullmatch(r"episode_\d{3,}", child.name):
@@ -661,7 +700,8 @@ def _table(summary: dict, args, resolved: dict) -> str:
     lines.append(f"  {'mean energy (J)':<22} {summary['mean_energy']:>10.2f}")
     lines.append(f"  {'env steps per second':<22} {summary['env_steps_per_second'] or 0:>10.0f}")
     if args.out:
-        lines.append(f"wrote {args.out}/summary.json, summary.png and episode_*/ (trajectory.npz for the first {kept_trajectories(args)}, plots for the first {min(args.plots, n)})")
+        page = "" if args.no_html or not max(kept_trajectories(args), min(args.plots, n)) else ", index.html"
+        lines.append(f"wrote {args.out}/summary.json, summary.png{page} and episode_*/ (trajectory.npz for the first {kept_trajectories(args)}, plots for the first {min(args.plots, n)})")
     return "\n".join(lines)
 
 
@@ -680,12 +720,13 @@ def cmd_hunt(args: argparse.Namespace, argv: Sequence[str]) -> None:
     writer: RunWriter | None = None
     try:
         trajectories = kept_trajectories(args)
-        writer = RunWriter(run.work, resolved, args.plots, args.video, trajectories)
+        writer = RunWriter(run.work, resolved, args.plots, args.video, trajectories, html=not args.no_html)
         details: list[dict] = []
         tally, seconds = simulate(args, params, layout, writer.episode, details, recorded=writer.recorded)
         summary = tally.summary(seconds)
         full = {**summary, "task": args.task, "params": resolved, "seed": args.seed, "layout": layout, "command": [PROG, *argv], "episodes_detail": details}
         writer.plot_summary(full)
+        writer.write_index(full, f"{PROG} hunt: {out}")
         with _sigint_held():  # summary.json and the swap into DIR: all or nothing
             writer.write_summary(full)
             run.commit()
@@ -773,6 +814,13 @@ def cmd_replay(args: argparse.Namespace, argv: Sequence[str]) -> None:
         with logs.atomic_path(out / "episode.mp4", keep_suffix=True) as tmp:
             frames = render.write_video(_CtrlC.checked(render.trajectory_frames(arrays, params, options)), tmp)
         written.insert(0, f"episode.mp4 ({frames} frames)")
+    if args.html:
+        from wolfpack.viewer.encode import encode_episode
+        from wolfpack.viewer.page import page_data, write_page
+
+        label = f"{folder.name} (seed {int(arrays['seed'])})" if "seed" in arrays else folder.name
+        write_page(out / "episode.html", page_data([encode_episode(arrays, params, label)]), f"wolfpack replay: {label}")
+        written.append("episode.html")
     if args.frames:
         import imageio.v3 as iio
 

@@ -23,7 +23,8 @@ from matplotlib.patches import Circle, Polygon, Rectangle
 from matplotlib.ticker import MaxNLocator
 
 OUTCOMES = ("captured", "cornered", "collision", "timeout")
-_OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
+#: Each outcome's colour in every picture (summary.png, the viewer's timeline and badges).
+OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
 _TARGET_COLOUR = "crimson"
 # The wolves' family: blues, teals and greens, far from the target's red (no orange, brown,
 # pink or purple, which read as red beside it), dark and light alternating so that neighbours
@@ -223,14 +224,14 @@ def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
 
     fig = Figure(figsize=(9.0, 3.6), dpi=_DPI, layout="constrained")
     ax_bar, ax_hist = fig.subplots(1, 2)
-    bars = ax_bar.bar(shown, [counts.get(o, 0) for o in shown], color=[_OUTCOME_COLOURS[o] for o in shown], edgecolor="black", linewidth=0.8)
+    bars = ax_bar.bar(shown, [counts.get(o, 0) for o in shown], color=[OUTCOME_COLOURS[o] for o in shown], edgecolor="black", linewidth=0.8)
     ax_bar.bar_label(bars)
     ax_bar.margins(y=0.12)  # room for the labels above the bars
     ax_bar.set_ylabel("episodes")
     ax_bar.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_bar.set_title(f"outcomes of {len(details)} episode{'' if len(details) == 1 else 's'}", fontsize=10)
     if capture_steps:
-        ax_hist.hist(capture_steps, bins=step_bins(capture_steps), color=_OUTCOME_COLOURS["captured"], edgecolor="black", linewidth=0.6)
+        ax_hist.hist(capture_steps, bins=step_bins(capture_steps), color=OUTCOME_COLOURS["captured"], edgecolor="black", linewidth=0.6)
         lo, hi = min(capture_steps), max(capture_steps)
         if hi - lo < 10:  # a few episodes, or all alike: show the steps around them, not a sliver
             ax_hist.set_xlim(lo - 5, hi + 6)
