@@ -32,22 +32,9 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 from common import UsageError, load_model, play, positive_int, prepare_out, report, seed_int  # noqa: E402
 from evaluate import expand_models  # noqa: E402
+from wolfpack.stats import iqm_interval  # noqa: E402, F401  (the scripts take it from here)
 
 OTHER = {"wolves": "targets", "targets": "wolves"}
-
-
-def iqm_interval(values: list[float], resamples: int = 10_000) -> dict:
-    """IQM, its 95 % percentile bootstrap interval over the values, median, min, max."""
-    from scipy import stats
-
-    x = np.asarray(values, dtype=float)
-    iqm = float(stats.trim_mean(x, 0.25))
-    if len(x) > 1 and np.ptp(x) > 0:
-        boot = stats.bootstrap((x,), lambda a, axis: stats.trim_mean(a, 0.25, axis=axis), confidence_level=0.95, n_resamples=resamples, method="percentile", rng=np.random.default_rng(0))
-        lo, hi = float(boot.confidence_interval.low), float(boot.confidence_interval.high)
-    else:
-        lo = hi = iqm
-    return {"iqm": iqm, "ci95": [lo, hi], "median": float(np.median(x)), "min": float(x.min()), "max": float(x.max()), "n": int(len(x))}
 
 
 def iqm_cell(summary: dict) -> str:

@@ -138,6 +138,21 @@ def _add_learned(base: dict, learned: dict) -> None:
             base.setdefault(spec["side"], {})[name] = {"kind": "learned", "tasks": tasks}
 
 
+def exploitability_entry(folder: str | Path, driver: Opponent, side: str) -> dict:
+    """The summary a scorecard carries of a finished ``wolfpack exploit`` run in ``folder``
+    (its ``exploit.json``), which must be of the scored policy and side: ``{"source", "task",
+    "measure", "budgets": [{"agent_steps", "seeds", "iqm", "ci95"}]}``. ValueError in one line
+    when there is none or it exploited another policy."""
+    path = Path(folder) / "exploit.json"
+    if not path.is_file():
+        raise ValueError(f"--exploit {folder}: no finished exploitability run there (exploit.json missing; 'wolfpack exploit --{side} {driver.name} --out {folder}' makes one)")
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    if doc.get("side") != side or as_policy(doc.get("policy"), side).name != driver.name:
+        raise ValueError(f"--exploit {folder}: it exploited {doc.get('policy')!r} ({doc.get('side')}), not {driver.name!r} ({side})")
+    budgets = [{k: b[k] for k in ("agent_steps", "seeds", "iqm", "ci95")} for b in doc["budgets"]]
+    return {"source": str(folder), "task": doc["task"], "measure": doc["measure"], "budgets": budgets}
+
+
 def rank(score: float, others: Sequence[float]) -> int:
     """1 + how many of ``others`` scored strictly higher."""
     return 1 + sum(1 for s in others if s > score)
@@ -320,6 +335,15 @@ def markdown(card: dict) -> str:
         collisions = row["collision_rate"] if side == "wolves" else row["target_collision_rate"]
         lines.append(f"| `{task}` | **{100 * row['score']:.1f} %** ({100 * lo:.1f}–{100 * hi:.1f}) | {100 * collisions:.1f} % | {100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
     lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
+    if card.get("exploitability"):
+        ex = card["exploitability"]
+        what = "survival of escapers" if side == "wolves" else "capture rate of packs"
+        lines += [
+            f"Exploitability on `{ex['task']}` (the {what} trained from scratch against it, IQM over seeds [95 % CI]; `{ex['source']}`): "
+            + "; ".join(f"{b['agent_steps']:,} agent-steps: **{100 * b['iqm']:.1f} %** [{100 * b['ci95'][0]:.1f}, {100 * b['ci95'][1]:.1f}] ({b['seeds']} seeds)" for b in ex["budgets"])
+            + ".",
+            "",
+        ]
     return "\n".join(lines)
 
 

@@ -32,13 +32,18 @@ Without --out the scorecard is printed as a Markdown table; with --out DIR (a ne
 folder) DIR gets scorecard.json (every task's report, the ranks and the baselines compared
 with), scorecard.md and scorecard.png. --force replaces an earlier scorecard there (only the
 files 'wolfpack benchmark' wrote, listed in DIR/.wolfpack-outputs.json; a DIR holding other
-files is refused)."""
+files is refused).
+
+--exploit DIR adds the policy's exploitability (a finished 'wolfpack exploit' run of the same
+policy: the best responses' survival against wolves, their capture rate against targets, at
+each budget) to scorecard.json and scorecard.md."""
 
 BENCHMARK_EPILOG = """\
 examples:
   wolfpack benchmark --wolves bvc
   wolfpack benchmark --wolves results/learned/generalist/seed0 --track generalisation --episodes 100
   wolfpack benchmark --wolves runs/wolves --out runs/wolves/scorecard
+  wolfpack benchmark --wolves bvc --exploit runs/exploit-bvc
   wolfpack benchmark --targets results/models/escape_ppo --tasks hunt-v1 fast-target-v1 --episodes 100"""
 
 
@@ -73,6 +78,12 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
         dest="overrides",
         help="override a parameter of every task by its dotted key (value read as YAML); repeatable; the scorecard is then not ranked",
     )
+    p.add_argument(
+        "--exploit",
+        metavar="DIR",
+        default=None,
+        help="add the policy's exploitability to the scorecard: DIR is a finished 'wolfpack exploit' run of the same policy (its exploit.json; 'wolfpack exploit --help')",
+    )
     p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
     p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty, or --force)")
     p.add_argument("--force", action="store_true", help="with --out DIR holding an earlier scorecard: replace its files once the new one is written (a DIR holding other files is refused)")
@@ -103,10 +114,13 @@ def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     # A bad key or value fails in scorecard(), before any episode and before anything is written.
     overrides = dict(config.parse_override(text) for text in args.overrides)
     driver = scorecard.as_policy(policy, side)  # a bad policy fails here, before any episode
+    exploited = scorecard.exploitability_entry(args.exploit, driver, side) if args.exploit is not None else None
     # The generalisation track plays the side's laws too, on the same episodes.
     players = 1 + (len(scorecard.track_rivals(driver, side)) if args.track == "generalisation" else 0)
     with tqdm(total=args.episodes * len(tasks) * players, unit="ep", file=sys.stderr, disable=not sys.stderr.isatty(), leave=False, desc=f"{driver.name} on {len(tasks)} tasks") as bar:
         card = scorecard.scorecard(driver, side, tasks=tasks, episodes=args.episodes, seed=seed, threads=args.threads, progress=bar.update, overrides=overrides, track=args.track)
+    if exploited is not None:
+        card["exploitability"] = exploited
     card["command"] = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
     if outputs is not None:
         try:

@@ -1,0 +1,25 @@
+"""Statistics over training seeds, as the field reports learned results: the interquartile mean
+(IQM) with a 95 % percentile bootstrap interval, the median and the range (Agarwal et al.,
+"Deep RL at the edge of the statistical precipice"; scipy's ``trim_mean`` and ``bootstrap``)."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+
+def iqm_interval(values: Sequence[float], resamples: int = 10_000) -> dict:
+    """``{"iqm", "ci95": [lo, hi], "median", "min", "max", "n"}`` of ``values`` (one per seed).
+    The bootstrap's generator is seeded, so the same values give the same interval; one value,
+    or values all equal, give an interval of that value."""
+    from scipy import stats
+
+    x = np.asarray(values, dtype=float)
+    iqm = float(stats.trim_mean(x, 0.25))
+    if len(x) > 1 and np.ptp(x) > 0:
+        boot = stats.bootstrap((x,), lambda a, axis: stats.trim_mean(a, 0.25, axis=axis), confidence_level=0.95, n_resamples=resamples, method="percentile", rng=np.random.default_rng(0))
+        lo, hi = float(boot.confidence_interval.low), float(boot.confidence_interval.high)
+    else:
+        lo = hi = iqm
+    return {"iqm": iqm, "ci95": [lo, hi], "median": float(np.median(x)), "min": float(x.min()), "max": float(x.max()), "n": int(len(x))}
