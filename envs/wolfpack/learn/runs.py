@@ -1,0 +1,69 @@
+"""Long jobs made of many ``wolfpack train`` runs (``wolfpack exploit``, ``wolfpack league``): the
+folder that holds them and each training run in a child process.
+
+A job's folder holds ``plan.json`` (its configuration, written first), the runs, and its
+result file (written last): a folder without the result is unfinished, and ``resume``
+continues it only with the same plan. Each run is a ``wolfpack train`` run folder: one whose
+``summary.json`` exists is finished and read back; one cut short after its first saved state
+continues with the trainer's own ``--resume``; one cut short before it starts again.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Sequence
+
+PLAN_FILE = "plan.json"
+
+
+class RunError(ValueError):
+    """Bad input to a job, or a job folder that does not fit it, said in one line."""
+
+
+def prepare(out: Path, plan: dict, resume: bool, result_file: str, what: str) -> None:
+    """Checks ``out`` before anything runs: new or empty (or, with ``resume``, an unfinished job
+    of the same plan), and writes the plan there. ``what`` names the job in messages (an
+    exploitability run, a league)."""
+    plan_path = out / PLAN_FILE
+    if resume:
+        if not plan_path.is_file():
+            raise RunError(f"--resume: {out} holds no {what} ({PLAN_FILE} missing)")
+        earlier = json.loads(plan_path.read_text(encoding="utf-8"))
+        changed = [k for k in plan if earlier.get(k) != plan[k]]
+        if changed:
+            raise RunError(f"--resume: {out} is {'an' if what[0] in 'aeiou' else 'a'} {what} of another configuration ({', '.join(f'{k}: {earlier.get(k)!r} there' for k in changed)})")
+        if (out / result_file).is_file():
+            raise RunError(f"--resume: {out} is finished ({result_file} is there); choose another --out to run it again")
+        return
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        hint = "; --resume continues it" if plan_path.is_file() and not (out / result_file).is_file() else ""
+        raise RunError(f"--out {out}: not a new or empty folder{hint}")
+    out.mkdir(parents=True, exist_ok=True)
+    plan_path.write_text(json.dumps(plan, indent=1) + "\n", encoding="utf-8")
+
+
+def train(folder: Path, options: Sequence[str], log: Path) -> dict:
+    """The summary of the ``wolfpack train OPTIONS --out folder`` run: read back when finished,
+    else trained (or continued) now in a child process whose output goes to ``log``.
+    KeyboardInterrupt when the child was interrupted; RuntimeError naming the log when it
+    failed."""
+    summary_path = folder / "summary.json"
+    if not summary_path.is_file():
+        resumable = (folder / "trainer.pt").is_file() or any((folder / "checkpoints").glob("*/trainer.pt"))
+        if folder.exists() and not resumable:
+            shutil.rmtree(folder)  # stopped before its first state: start it again
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        log.parent.mkdir(parents=True, exist_ok=True)
+        cmd = [sys.executable, "-m", "wolfpack", "train", *options, "--no-progress", "--out", str(folder), *(["--resume"] if resumable else [])]
+        with log.open("a", encoding="utf-8") as f:
+            code = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL).returncode
+        if code == 130:
+            raise KeyboardInterrupt
+        if code != 0 or not summary_path.is_file():
+            lines = log.read_text(encoding="utf-8", errors="replace").strip().splitlines()
+            raise RuntimeError(f"the training run {folder} failed (exit {code}): {lines[-1] if lines else 'no output'} (log: {log})")
+    return json.loads(summary_path.read_text(encoding="utf-8"))
