@@ -223,10 +223,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="wolfpack: multi-agent pursuit-evasion (wolf-pack hunting) with a Rust core.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help', 'wolfpack benchmark --help', 'wolfpack exploit --help', 'wolfpack dataset --help' or 'wolfpack view --help' for details.",
+        epilog="run 'wolfpack hunt --help', 'wolfpack replay --help', 'wolfpack bench --help', 'wolfpack train --help', 'wolfpack benchmark --help', 'wolfpack exploit --help', 'wolfpack league --help', 'wolfpack dataset --help' or 'wolfpack view --help' for details.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {_core.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,view,bench,train,benchmark,exploit,dataset}", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{hunt,replay,view,bench,train,benchmark,exploit,league,dataset}", parser_class=_Parser)
 
     hunt = sub.add_parser(
         "hunt", help="run scripted episodes; print a summary, write logs and plots", description=HUNT_DESCRIPTION, epilog=HUNT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -317,6 +317,9 @@ def build_parser() -> argparse.ArgumentParser:
     from wolfpack.exploit_cli import add_parser as add_exploit
 
     add_exploit(sub, _Parser)
+    from wolfpack.league_cli import add_parser as add_league
+
+    add_league(sub, _Parser)
     return parser
 
 
