@@ -119,6 +119,11 @@ def test_dropping_empty_slots_changes_no_action_and_no_batch_mate_changes_one():
         together = net(torch.cat([crowded, x[4:]]))
         assert torch.equal(together[4:], full[4:])
         assert torch.equal(net(x[4:8]), full[4:8])
+        # A batch where no slot holds a row (only the walls) keeps one slot to pool over.
+        empty = x.clone()
+        empty[..., own : x.shape[-1] - walls * F] = 0.0
+        assert net.walls.without_empty_slots(empty).shape[-1] == x.shape[-1] - 17 * F
+        assert torch.equal(net(net.walls.without_empty_slots(empty)), net(empty))
 
 
 def test_the_entity_normaliser_counts_present_rows_only_and_keeps_padding_zero():

@@ -247,6 +247,7 @@ class Walls:
         occupied = x[..., self.self_dim : end : self.row_size].gt(0.5).reshape(-1, slots).any(0)
         if bool(occupied.all()):
             return x
+        occupied[0] |= not bool(occupied.any())  # one slot at least, as occupied_slots keeps
         # Copied as runs of neighbouring entries (the own features and walls, each run of
         # occupied slots): one copy pass, where a gather by entry index took four times as long.
         runs, start = [], 0
