@@ -211,7 +211,7 @@ def league(
         for side in SIDES:
             pops[side].append(new[side])
         tmp = out / f"{PROGRESS_FILE}.tmp"
-        tmp.write_text(json.dumps({"finished": False, "iterations": records}, indent=1) + "\n", encoding="utf-8")
+        tmp.write_text(json.dumps({"finished": False, "history": records}, indent=1) + "\n", encoding="utf-8")
         os.replace(tmp, out / PROGRESS_FILE)
         if progress is not None:
             progress(record)
