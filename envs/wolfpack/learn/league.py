@@ -30,7 +30,6 @@ uninterrupted one would.
 from __future__ import annotations
 
 import json
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -39,7 +38,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from wolfpack.learn.meta import nash
-from wolfpack.learn.runs import RunError, prepare, train
+from wolfpack.learn.runs import RunError, check_player, prepare, threads_per_run, train
+from wolfpack.logs import write_json_atomic
 from wolfpack.opponents import SIDES, Opponent
 from wolfpack.task import check_task, task_params
 
@@ -69,12 +69,7 @@ def plan(iterations: int, budget: int, task: str, episodes: int, seed: int, wolv
     start = {"wolves": list(wolves or [params["policies"]["wolves"]]), "targets": list(targets or [params["policies"]["targets"]])}
     for side, members in start.items():
         for member in members:
-            try:
-                driver = Opponent(member)
-            except (ValueError, FileNotFoundError, OSError) as err:
-                raise LeagueError(f"--{side} {member}: {err}") from None
-            if driver.side is not None and driver.side != side:
-                raise LeagueError(f"--{side} {member}: it plays the {driver.side}, not the {side}")
+            check_player(member, side, LeagueError)
     return {"iterations": iterations, "budget": budget, "task": task, "episodes": episodes, "seed": seed, "meta_solver": "nash", "meta_seed": META_SEED, **start}
 
 
@@ -130,9 +125,7 @@ class Payoffs:
                 players[side] = self._model(member, side)
             results = rollout(params, episodes=self.episodes, seed=META_SEED, threads=None, **players)
             self.table[key] = float(report(results, wolves, targets)["capture_rate"])
-            tmp = self.path.with_suffix(".tmp")
-            tmp.write_text(json.dumps(self.table, indent=1) + "\n", encoding="utf-8")
-            os.replace(tmp, self.path)
+            write_json_atomic(self.path, self.table)
         return self.table[key]
 
     def matrix(self, wolves: Sequence[str], targets: Sequence[str]) -> np.ndarray:
@@ -164,8 +157,7 @@ def league(
     if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs not in (1, 2):
         raise LeagueError(f"--jobs {jobs}: 1 or 2 (the two sides' runs of a step)")
     prepare(out, the_plan, resume, RESULT_FILE, "league")
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    threads = max(1, cores // jobs)
+    threads = threads_per_run(jobs)
     payoffs = Payoffs(out, task, episodes)
     pops = {side: list(the_plan[side]) for side in SIDES}
     started = time.perf_counter()
@@ -210,9 +202,7 @@ def league(
         records.append(record)
         for side in SIDES:
             pops[side].append(new[side])
-        tmp = out / f"{PROGRESS_FILE}.tmp"
-        tmp.write_text(json.dumps({"finished": False, "history": records}, indent=1) + "\n", encoding="utf-8")
-        os.replace(tmp, out / PROGRESS_FILE)
+        write_json_atomic(out / PROGRESS_FILE, {"finished": False, "history": records})
         if progress is not None:
             progress(record)
 
@@ -231,9 +221,7 @@ def league(
         "payoffs": {"wolves": [_label(out, w) for w in pops["wolves"]], "targets": [_label(out, t) for t in pops["targets"]], "capture_rate": m.tolist()},
         "wall_s": time.perf_counter() - started,
     }
-    tmp = out / f"{RESULT_FILE}.tmp"
-    tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, out / RESULT_FILE)  # last: a folder with league.json is finished
+    write_json_atomic(out / RESULT_FILE, doc)  # last: a folder with league.json is finished
     return doc
 
 

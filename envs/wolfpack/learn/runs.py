@@ -15,13 +15,39 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
+
+from wolfpack.logs import write_json_atomic
+
+if TYPE_CHECKING:
+    from wolfpack.opponents import Opponent
 
 PLAN_FILE = "plan.json"
 
 
 class RunError(ValueError):
     """Bad input to a job, or a job folder that does not fit it, said in one line."""
+
+
+def check_player(policy: str, side: str, error: type[RunError] = RunError) -> Opponent:
+    """``policy`` (a law's name or a saved model) as the driver of ``side``; ``error`` in one
+    line naming it when it is neither, or plays the other side."""
+    from wolfpack.opponents import Opponent
+
+    try:
+        driver = Opponent(policy)
+    except (ValueError, FileNotFoundError, OSError) as err:
+        raise error(f"--{side} {policy}: {err}") from None
+    if driver.side is not None and driver.side != side:
+        raise error(f"--{side} {policy}: it plays the {driver.side}, not the {side}")
+    return driver
+
+
+def threads_per_run(jobs: int) -> int:
+    """Each of ``jobs`` training runs at once gets its share of the cores (at least one)."""
+    from wolfpack.learn.cli import default_threads
+
+    return max(1, default_threads()[0] // jobs)
 
 
 def prepare(out: Path, plan: dict, resume: bool, result_file: str, what: str) -> None:
@@ -43,7 +69,7 @@ def prepare(out: Path, plan: dict, resume: bool, result_file: str, what: str) ->
         hint = "; --resume continues it" if plan_path.is_file() and not (out / result_file).is_file() else ""
         raise RunError(f"--out {out}: not a new or empty folder{hint}")
     out.mkdir(parents=True, exist_ok=True)
-    plan_path.write_text(json.dumps(plan, indent=1) + "\n", encoding="utf-8")
+    write_json_atomic(plan_path, plan)
 
 
 def train(folder: Path, options: Sequence[str], log: Path) -> dict:
