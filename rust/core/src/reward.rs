@@ -3,8 +3,9 @@
 //! Wolves, each: `−time_penalty`; `+capture_bonus` for every target captured this step (a
 //! team reward: every wolf gets it); `−collision_penalty` if its body overlaps an obstacle or
 //! another wolf after the step; potential-based shaping `shaping · (Φ(s') − Φ(s))` with
-//! `Φ = −|d − r_h|`, d the distance to the nearest uncaptured target and r_h `seed000.radius`
-//! (the hunting ring), and Φ = 0 in a terminal state (capture or collision) so that shaping
+//! `Φ = −|d − r_h|`, d the distance to the wolf's focus target and r_h `seed000.radius`
+//! (the hunting ring) — the focus is the wolf's nearest uncaptured target, or with
+//! `shaping_focus: pack` the uncaptured target with the least total distance to the pack — and Φ = 0 in a terminal state (capture or collision) so that shaping
 //! does not change which policies are optimal (Ng et al., 1999). A timeout is a truncation,
 //! not a terminal state: Φ(s') keeps its value.
 //!
@@ -12,6 +13,7 @@
 //! it is captured; `−collision_penalty` at a step its body overlaps an obstacle. A captured
 //! target gets 0 afterwards.
 
+use crate::config::ShapingFocus;
 use crate::world::{Outcome, World};
 
 /// What the rewards remember between steps of one world.
@@ -39,8 +41,9 @@ impl RewardState {
     }
 
     pub fn reset(&mut self, w: &World) {
+        let focus = pack_focus(w);
         self.potential.clear();
-        self.potential.extend((0..w.n_wolves()).map(|i| potential(w, i)));
+        self.potential.extend((0..w.n_wolves()).map(|i| potential(w, i, focus)));
         self.collisions.clear();
         self.collisions.extend_from_slice(&w.collisions);
         self.captured.clear();
@@ -54,8 +57,9 @@ impl RewardState {
         let n = w.n_wolves();
         let newly_captured = w.target_captured.iter().zip(&self.captured).filter(|(now, before)| **now && !**before).count();
         let terminal = w.outcome.is_success() || w.outcome == Outcome::Collision;
+        let focus = if terminal { None } else { pack_focus(w) };
         for i in 0..n {
-            let phi = if terminal { 0.0 } else { potential(w, i) };
+            let phi = if terminal { 0.0 } else { potential(w, i, focus) };
             if !wolves.is_empty() {
                 let collided = w.collisions[i] > self.collisions[i];
                 let mut x = -r.wolves.time_penalty + r.wolves.capture_bonus * newly_captured as f64 + r.wolves.shaping * (phi - self.potential[i]);
@@ -85,14 +89,36 @@ impl RewardState {
     }
 }
 
-/// Φ of wolf i: minus its distance from the hunting ring of the nearest uncaptured target.
-fn potential(w: &World, i: usize) -> f64 {
-    let d = nearest_target_distance(w, i);
+/// Φ of wolf i: minus its distance from the hunting ring of its focus target (`focus`, the pack's
+/// target under `shaping_focus: pack`, else its own nearest uncaptured target).
+fn potential(w: &World, i: usize, focus: Option<usize>) -> f64 {
+    let d = match focus {
+        Some(j) => (w.targets[j].pos - w.wolves[i].pos).norm(),
+        None => nearest_target_distance(w, i),
+    };
     if d.is_finite() {
         -(d - w.params.seed000.radius).abs()
     } else {
         0.0
     }
+}
+
+/// The pack's focus under `shaping_focus: pack`: the uncaptured target with the least total
+/// distance to the wolves (the lowest index on a tie). None under `nearest`, or when every target
+/// is captured.
+fn pack_focus(w: &World) -> Option<usize> {
+    if w.params.rewards.wolves.shaping_focus != ShapingFocus::Pack {
+        return None;
+    }
+    let total = |j: usize| w.wolves.iter().map(|a| (w.targets[j].pos - a.pos).norm()).sum::<f64>();
+    (0..w.n_targets())
+        .filter(|&j| !w.target_captured[j])
+        .map(|j| (j, total(j)))
+        .fold(None, |best: Option<(usize, f64)>, (j, d)| match best {
+            Some((_, b)) if b <= d => best,
+            _ => Some((j, d)),
+        })
+        .map(|(j, _)| j)
 }
 
 /// Distance from wolf i to the nearest uncaptured target (∞ when every target is captured).
@@ -156,6 +182,33 @@ mod tests {
         // After the capture the target's reward is 0.
         s.step(&w, &mut rw, &mut rt);
         assert_eq!(rt[0], 0.0);
+    }
+
+    #[test]
+    fn pack_focus_measures_every_wolf_against_the_packs_target() {
+        // Two still targets: A at the origin, B at (6, 0). Wolves 0-2 sit near A, wolves 3-4 near
+        // B; A has the least total distance. Wolf 4 steps 0.1 m towards B (away from A).
+        let mut p = Params::default();
+        p.policies.targets = crate::config::TargetPolicy::Still;
+        p.world.targets = 2;
+        let wolves = vec![[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [5.0, 1.0, 0.0], [5.0, 0.0, 0.0]];
+        let layout = Layout { wolves, targets: vec![[0.0, 0.0, 0.0], [6.0, 0.0, 0.0]], obstacles: vec![] };
+        let step_wolf_4 = |focus: ShapingFocus| {
+            let mut q = p.clone();
+            q.rewards.wolves.shaping_focus = focus;
+            let mut w = World::from_layout(Arc::new(q), 0, &layout).unwrap();
+            let mut s = RewardState::new(&w);
+            let mut cmd = [Command::default(); 5];
+            cmd[4] = Command { v: 1.0, omega: 0.0 };
+            w.step_with(Some(&cmd), None);
+            let (mut rw, mut rt) = ([0f32; 5], [0f32; 2]);
+            s.step(&w, &mut rw, &mut rt);
+            rw[4]
+        };
+        // nearest: d to B 1.0 → 0.9, Φ −0.35 → −0.25: +0.1 − 0.01.
+        assert!((step_wolf_4(ShapingFocus::Nearest) - 0.09).abs() < 1e-5);
+        // pack: d to A 5.0 → 5.1, Φ −4.35 → −4.45: −0.1 − 0.01.
+        assert!((step_wolf_4(ShapingFocus::Pack) + 0.11).abs() < 1e-5);
     }
 
     #[test]

@@ -456,12 +456,28 @@ pub struct WolfRewards {
     pub collision_penalty: f64,
     /// Subtracted from every wolf at every step.
     pub time_penalty: f64,
+    /// Which target the shaping measures each wolf's distance to.
+    pub shaping_focus: ShapingFocus,
 }
 
 impl Default for WolfRewards {
     fn default() -> Self {
-        Self { capture_bonus: 10.0, shaping: 1.0, collision_penalty: 10.0, time_penalty: 0.01 }
+        Self { capture_bonus: 10.0, shaping: 1.0, collision_penalty: 10.0, time_penalty: 0.01, shaping_focus: ShapingFocus::Nearest }
     }
+}
+
+/// The target a wolf's shaping potential measures its distance to (`rewards.wolves.shaping_focus`).
+/// With one target both are the same; with several, `nearest` pulls each wolf towards its own
+/// nearest target and so splits the pack, while a capture needs `capture.count` wolves on one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ShapingFocus {
+    /// Each wolf's own nearest uncaptured target.
+    #[default]
+    Nearest,
+    /// One target for the whole pack: the uncaptured target with the least total distance to
+    /// the wolves (ties to the lower index).
+    Pack,
 }
 
 /// Target rewards (each target, each step).
