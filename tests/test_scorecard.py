@@ -33,6 +33,18 @@ def test_a_law_scores_what_wolfpack_hunt_counts_on_the_same_episodes():
     assert card["side"] == "wolves" and card["skill"] == "capture_rate" and card["tasks_played"] == ["open-v1", "fast-target-v1"]
 
 
+def test_two_targets_report_how_far_the_pack_got():
+    """With two targets a failed episode may still have taken one: ``any_capture_rate`` and
+    ``mean_targets_captured`` count the targets captured in each episode, whatever its outcome,
+    as ``wolfpack.run_episodes`` records each target's capture step."""
+    row = scorecard.score_task(scorecard.as_policy("bvc", "wolves"), "wolves", "two-targets-v1", episodes=24, seed=40)
+    results = wolfpack.run_episodes(task_params("two-targets-v1", {"policies.wolves": "bvc"}), 24, 40)
+    taken = [sum(step is not None for step in r["target_capture_steps"]) for r in results]
+    assert row["any_capture_rate"] == sum(k > 0 for k in taken) / 24
+    assert row["mean_targets_captured"] == pytest.approx(sum(taken) / 24)
+    assert row["any_capture_rate"] > row["capture_rate"]  # some episodes took one target only
+
+
 def test_targets_are_scored_on_survival():
     card = scorecard.scorecard("still", "targets", tasks=["hunt-v1"], episodes=10, seed=0)
     results = wolfpack.run_episodes(task_params("hunt-v1", {"policies.targets": "still"}), 10, 0)

@@ -59,7 +59,8 @@ def rollout(
 
     Returns one dict per episode with ``wolfpack.summarize``'s fields (``seed``, ``outcome``,
     ``steps``, ``capture_step``, ``cornered_step`` (first step a target was cornered, or None),
-    ``energy`` [N+M], ``collisions`` [N+M]) and ``return_wolves`` /
+    ``energy`` [N+M], ``collisions`` [N+M]), ``targets_captured`` (how many of the M targets
+    were captured, whatever the outcome) and ``return_wolves`` /
     ``return_targets`` (undiscounted episode return per agent, averaged over the side's agents)
     and ``target_wall_distance`` (m, the targets' distance to the nearest wall when the episode
     ended, averaged over targets).
@@ -93,6 +94,7 @@ def rollout(
                     "outcome": outcome,
                     "steps": int(out["steps"][e]),
                     "capture_step": int(caps.max()) if outcome == "captured" else None,
+                    "targets_captured": int((caps >= 0).sum()),
                     "cornered_step": cornered if cornered >= 0 else None,
                     "energy": out["energy"][e].copy(),
                     "collisions": out["collisions"][e].copy(),
@@ -111,8 +113,10 @@ def report(results: list[dict], wolves: str, targets: str) -> dict:
     """One evaluation row: the ``wolfpack hunt --json`` summary of these episodes plus the
     capture rate's 95 % Wilson interval, mean capture steps, wolf/target collision rates, the
     cornered rate (episodes ended as cornered, only with ``capture.cornered``), the success
-    rate (captured + cornered), the episodes in which a target was ever cornered, and mean
-    returns; ``wolves``/``targets`` name the policies."""
+    rate (captured + cornered), the episodes in which a target was ever cornered, mean
+    returns, and with several targets how far the pack got (``any_capture_rate``: episodes in
+    which at least one target was captured; ``mean_targets_captured``); ``wolves``/``targets``
+    name the policies."""
     s = summarize(results)
     n = len(results)
     captured = [r["capture_step"] for r in results if r["outcome"] == "captured"]
@@ -139,5 +143,7 @@ def report(results: list[dict], wolves: str, targets: str) -> dict:
         "mean_return_wolves": float(statistics.fmean(r["return_wolves"] for r in results)) if n else 0.0,
         "mean_return_targets": float(statistics.fmean(r["return_targets"] for r in results)) if n else 0.0,
         "median_final_target_wall_distance": float(statistics.median(r["target_wall_distance"] for r in results)) if n else None,
+        "any_capture_rate": sum(r["targets_captured"] > 0 for r in results) / n if n else 0.0,
+        "mean_targets_captured": float(statistics.fmean(r["targets_captured"] for r in results)) if n else 0.0,
         "capture_steps": captured,
     }
