@@ -298,6 +298,43 @@ def test_trajectory_npz_shapes_dtypes_and_row_semantics(small_run):
         assert ((agents[:, :, 2] >= 0) & (agents[:, :, 2] < 2 * math.pi)).all()
 
 
+#: The modes each law may be in (docs/world-and-laws.md §1.8), wolves' and targets' (escape).
+LAW_MODES_OF = {
+    "seed000": {"chase", "follow", "lost", "early_exit", "emergency", "close_partner", "avoid_edge"},
+    "bvc": {"wait", "lost", "direct", "cell_inside", "cell_edge", "cell_vertex"},
+    "formation": {"wait", "lost", "lead", "encircle"},
+    "escape": {"wander", "flee", "coast", "emergency", "avoid_edge", "avoid_hold", "ended"},
+}
+
+
+@pytest.mark.parametrize("law", ["seed000", "bvc", "formation"])
+def test_trajectories_record_the_mode_of_each_law(cli, tmp_path, law):
+    """``hunt --out``'s trajectory.npz holds each agent's law mode per state (row 0: none), as
+    codes into mode_names (the core's vocabulary), each a mode of that law, and the modes change
+    over an episode."""
+    from wolfpack import _core
+
+    out = tmp_path / law
+    proc = cli("hunt", "--wolves", law, "--episodes", "3", "--seed", "2", "--plots", "0", "--no-html", "--out", out, *SHORT)
+    assert proc.returncode == 0, proc.stderr
+    varied = {"wolves": 0, "targets": 0}
+    for k in range(3):
+        with np.load(out / f"episode_{k:03d}" / "trajectory.npz", allow_pickle=False) as z:
+            a = {key: z[key] for key in z.files}
+        rows = a["wolves"].shape[0]
+        assert a["wolf_mode"].shape == (rows, 5) and a["wolf_mode"].dtype == np.uint8
+        assert a["target_mode"].shape == (rows, 1) and a["target_mode"].dtype == np.uint8
+        assert a["mode_names"].tolist() == list(_core.LAW_MODES) and _core.LAW_MODES[0] == "none"
+        assert (a["wolf_mode"][0] == 0).all() and (a["target_mode"][0] == 0).all(), "row 0: no step yet"
+        names = np.asarray(_core.LAW_MODES)
+        wolves, targets = set(names[a["wolf_mode"][1:]].ravel()), set(names[a["target_mode"][1:]].ravel())
+        assert wolves <= LAW_MODES_OF[law], f"episode {k}: {wolves - LAW_MODES_OF[law]} are no {law} modes"
+        assert targets <= LAW_MODES_OF["escape"], f"episode {k}: {targets - LAW_MODES_OF['escape']} are no escape modes"
+        for side, codes in (("wolves", a["wolf_mode"]), ("targets", a["target_mode"])):
+            varied[side] += any(len(np.unique(codes[1:, i])) > 1 for i in range(codes.shape[1]))
+    assert varied["wolves"] and varied["targets"], f"{law}: the modes never change over an episode ({varied})"
+
+
 def test_table_output_without_json(cli, tmp_path):
     proc = cli("hunt", "--episodes", "2", "--targets", "still", *SHORT)
     assert proc.returncode == 0, proc.stderr

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -144,3 +145,45 @@ def test_run_writer_removes_a_stale_summary_at_once(tmp_path):
     (tmp_path / "summary.json").write_text("{}")
     RunWriter(tmp_path, PARAMS, plots=0)
     assert not (tmp_path / "summary.json").exists()
+
+
+def _with_modes(n: int = 3, m: int = 1, steps: int = 7) -> dict:
+    """A synthetic trajectory with law modes, as the core records them."""
+    r = synthetic_result(n, m, steps)
+    rng = np.random.default_rng(0)
+    r["trajectory"]["wolf_mode"] = rng.integers(1, len(_core.LAW_MODES), (steps + 1, n)).astype(np.uint8)
+    r["trajectory"]["target_mode"] = rng.integers(1, len(_core.LAW_MODES), (steps + 1, m)).astype(np.uint8)
+    r["trajectory"]["wolf_mode"][0] = r["trajectory"]["target_mode"][0] = 0
+    return logs.trajectory_arrays(r, PARAMS)
+
+
+def test_law_modes_are_written_with_their_names_and_checked():
+    a = _with_modes()
+    assert a["wolf_mode"].dtype == a["target_mode"].dtype == np.uint8
+    assert a["mode_names"].tolist() == list(_core.LAW_MODES)
+    logs.check_trajectory(a)
+    # Files written before modes were recorded have none, and pass.
+    old = logs.trajectory_arrays(synthetic_result(), PARAMS)
+    assert not {"wolf_mode", "target_mode", "mode_names"} & set(old)
+    logs.check_trajectory(old)
+    for key, value, fragment in (
+        ("wolf_mode", lambda a: a["wolf_mode"][:, :2], "wolf_mode: expected shape [T+1, N]"),
+        ("target_mode", lambda a: a["target_mode"][1:], "target_mode: expected shape [T+1, M]"),
+        ("wolf_mode", lambda a: a["wolf_mode"] * 0 + len(_core.LAW_MODES), "wolf_mode: codes must lie in"),
+        ("target_mode", lambda a: a["target_mode"].astype(float), "target_mode: must hold integer codes"),
+        ("mode_names", lambda a: np.array([1, 2]), "mode_names: must be a list of strings"),
+    ):
+        bad = dict(a)
+        bad[key] = value(a)
+        with pytest.raises(ValueError, match=re.escape(fragment)):
+            logs.check_trajectory(bad)
+
+
+def test_the_mode_names_are_the_documented_table():
+    """docs/world-and-laws.md §1.8 lists every mode by code, as the core names them."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "world-and-laws.md").read_text(encoding="utf-8")
+    section = text.split("### 1.8 The laws' modes", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:3] for line in section.splitlines() if line.startswith("| ") and line.split("|")[1].strip().isdigit()]
+    assert [(int(code), name.strip().strip("`")) for code, name in rows] == list(enumerate(_core.LAW_MODES))

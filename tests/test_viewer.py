@@ -92,6 +92,25 @@ def test_packing_round_trips_within_the_stated_precision(source):
     assert packed["first_sighting"] == encode.first_sighting(arrays)
 
 
+def test_law_modes_pack_exactly_as_run_lengths():
+    arrays = logs.trajectory_arrays(wolfpack.run_episodes(None, 1, 9, record=True)[0], PARAMS)
+    packed = json.loads(json.dumps(encode.encode_episode(arrays, PARAMS, "x")))
+    want = np.concatenate([arrays["wolf_mode"], arrays["target_mode"]], axis=1)
+    assert np.array_equal(encode.decode_episode(packed)["modes"], want)
+    changes = int((np.diff(want, axis=0) != 0).sum()) + want.shape[1]
+    assert len(base64.b64decode(packed["modes"])) <= 3 * 2 * changes  # a (code, length) pair per run
+    # every shape of series: constant, alternating, one row, none
+    for codes in (np.zeros((40, 3)), np.tile([[1], [2]], (20, 4)), np.array([[5, 0, 7]]), np.zeros((9, 0))):
+        assert np.array_equal(encode.unpack_runs(encode.pack_runs(codes), *codes.shape), codes)
+    # a file recorded with other names is read by name; names the page lacks are none
+    other = dict(arrays, mode_names=np.array(["none", "flee", "renamed", "chase"]), wolf_mode=np.array([[0, 1, 2, 3, 3]] * len(want), np.uint8), target_mode=np.full((len(want), 1), 1, np.uint8))
+    back = encode.decode_episode(encode.encode_episode(other, PARAMS))["modes"]
+    assert [encode.MODE_NAMES[c] for c in back[0]] == ["none", "flee", "none", "chase", "chase", "flee"]
+    # a file without modes packs none
+    del other["wolf_mode"], other["target_mode"], other["mode_names"]
+    assert "modes" not in encode.encode_episode(other, PARAMS) and "modes" not in encode.decode_episode(encode.encode_episode(other, PARAMS))
+
+
 def test_the_error_does_not_grow_along_an_episode():
     # A slow drift of 0.3 mm a step: rounding each step's difference would lose it all.
     rows = 2000
@@ -479,6 +498,56 @@ def test_clicking_a_wolf_shows_its_state(open_page, small_run):
     before, zoom = page.js(f"wolfpack.toScreen({x}, {y})"), scale()
     page.page.keyboard.press("+")
     assert np.allclose(page.js(f"wolfpack.toScreen({x}, {y})"), before, atol=0.5) and scale() > 1.2 * zoom
+    assert page.problems == []
+
+
+def _info(page: Page) -> dict[str, str]:
+    """The clicked agent's details, as the panel lists them."""
+    return dict(page.js("Array.from(document.querySelectorAll('#agent-state tr')).map(r => [r.cells[0].textContent, r.cells[1].textContent])"))
+
+
+@browser_test
+def test_clicking_an_agent_shows_its_laws_mode(open_page, small_run, tmp_path, capsys):
+    arrays = logs.load_trajectory(small_run / "episode_000" / "trajectory.npz")
+    names = arrays["mode_names"].tolist()
+    assert names == list(_core.LAW_MODES)
+    page = open_page(small_run / "index.html")
+    last = len(arrays["wolves"]) - 1
+    # the script interface gives every agent's mode, as the file records it
+    for step in (0, 1, 12, last):
+        state = page.js(f"wolfpack.state({step})")
+        assert state["wolf_modes"] == [names[c] for c in arrays["wolf_mode"][step]], step
+        assert state["target_modes"] == [names[c] for c in arrays["target_mode"][step]], step
+    # clicking wolf 0 lists its mode at the step shown ...
+    page.scrub(12)
+    (xy, _), *_ = _wolf_pixels(page, 12)
+    page.page.mouse.click(*xy)
+    assert page.js("wolfpack.selected()") == {"pane": 0, "agent": 0}
+    assert _info(page)["mode"] == names[arrays["wolf_mode"][12, 0]]
+    # ... and follows the step to where the mode is another
+    other = next(t for t in range(1, last + 1) if arrays["wolf_mode"][t, 0] != arrays["wolf_mode"][12, 0])
+    page.scrub(other)
+    assert _info(page)["mode"] == names[arrays["wolf_mode"][other, 0]] != names[arrays["wolf_mode"][12, 0]]
+    page.scrub(0)
+    assert _info(page)["mode"] == "(from step 1)"
+    # the target's mode, clicked where it is drawn
+    page.scrub(12)
+    x, y, th = arrays["targets"][12, 0, :3]
+    page.page.mouse.click(*page.js(f"wolfpack.toScreen({x + 0.1 * np.cos(th)}, {y + 0.1 * np.sin(th)})"))
+    assert page.js("wolfpack.selected()") == {"pane": 0, "agent": 5}
+    assert _info(page)["mode"] == names[arrays["target_mode"][12, 0]]
+    assert page.problems == []
+    # A file written before modes were recorded: no mode shown, none given, and no error.
+    old = tmp_path / "old.npz"
+    np.savez_compressed(old, **{k: v for k, v in arrays.items() if k not in ("wolf_mode", "target_mode", "mode_names")})
+    assert run(["view", old, "--out", tmp_path / "old.html"], capsys)[0] == 0
+    assert "modes" not in page_json(tmp_path / "old.html")["episodes"][0]
+    page = open_page(tmp_path / "old.html")
+    assert page.js("[wolfpack.state(12).wolf_modes, wolfpack.state(12).target_modes]") == [None, None]
+    page.scrub(12)
+    (xy, _), *_ = _wolf_pixels(page, 12)
+    page.page.mouse.click(*xy)
+    assert "mode" not in _info(page) and "position" in _info(page)
     assert page.problems == []
 
 

@@ -13,6 +13,9 @@ OUTCOMES: tuple[str, ...]
 #: The scripted laws of each side, as ``policies.wolves`` / ``policies.targets`` take them.
 WOLF_LAWS: tuple[str, ...]
 TARGET_LAWS: tuple[str, ...]
+#: The laws' modes, indexed by the codes of a trajectory's ``wolf_mode`` / ``target_mode``
+#: (``wolfpack_core::world::LawMode``; 0 is ``none``: no law drove the agent).
+LAW_MODES: tuple[str, ...]
 #: The values of ``learners=``.
 LEARNERS: tuple[str, ...]
 #: The renderer's RGB colours (``wolfpack_core::render``).

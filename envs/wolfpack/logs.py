@@ -24,6 +24,14 @@ key                    dtype, shape         meaning
 ``energy``             float64 [T+1, N+M]   accumulated Σ ½ m v² (J) per agent, wolves first;
                                             row 0 is 0
 ``interaction``        uint8 [T, N+M, N+M]  0/1 per step; row = observer, column = observed
+``wolf_mode``          uint8 [T+1, N]       the mode each wolf's law was in at the step that
+                                            led to row t's state (codes into ``mode_names``;
+                                            row 0, before any step, is 0 = ``none``, as is a
+                                            step driven by a model); older files lack it
+``target_mode``        uint8 [T+1, M]       as ``wolf_mode``, for the targets' law
+``mode_names``         str [C]              the name of every mode code, 0 first
+                                            (``wolfpack._core.LAW_MODES``; world-and-laws
+                                            §1.8 says what each means)
 ``collisions``         uint32 [N+M]         steps each agent spent touching an obstacle (or, a
                                             wolf, another wolf); the plots mark a collision
 ``outcome``            str scalar           ``captured`` / ``collision`` / ``timeout`` /
@@ -59,6 +67,8 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
+from wolfpack import _core
+
 SUMMARY_NAME = "summary.json"
 #: The marker of a run in progress or interrupted: written first, removed once summary.json is.
 INCOMPLETE_NAME = "INCOMPLETE"
@@ -90,7 +100,7 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
     capture_step = result["capture_step"]
     cornered_step = result.get("cornered_step")
     ends = result.get("target_capture_steps") or [None] * int(result["targets"])
-    return {
+    return mode_arrays(traj) | {
         "wolves": np.asarray(traj["wolves"], dtype=np.float64),
         "targets": np.asarray(traj["targets"], dtype=np.float64),
         "energy": np.asarray(traj["energy"], dtype=np.float64),
@@ -108,6 +118,19 @@ def trajectory_arrays(result: Mapping[str, Any], params: Mapping[str, Any]) -> d
         "border": np.asarray(params["world"]["border"], dtype=np.float64),
         "ts": np.array(float(params["world"]["ts"])),
         "capture_distance": np.array(float(params["capture"]["distance"])),
+    }
+
+
+def mode_arrays(traj: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """``wolf_mode``, ``target_mode`` and ``mode_names`` of ``trajectory.npz`` from a dict
+    holding the first two (a recorded trajectory, or states stacked by
+    :mod:`wolfpack.viewer.play`); nothing when it holds no modes."""
+    if "wolf_mode" not in traj or "target_mode" not in traj:
+        return {}
+    return {
+        "wolf_mode": np.asarray(traj["wolf_mode"], dtype=np.uint8),
+        "target_mode": np.asarray(traj["target_mode"], dtype=np.uint8),
+        "mode_names": np.array(_core.LAW_MODES, dtype=str),
     }
 
 
@@ -152,7 +175,8 @@ def check_trajectory(arrays: Mapping[str, np.ndarray]) -> None:
     module's docstring before anything draws it: the keys, numeric dtypes (no strings or
     objects where numbers belong), shapes consistent with each other (T, N, M, K from
     ``wolves``, ``targets`` and ``obstacle_poses``), finite poses, energies, radii, border and
-    capture distance, and an interaction matrix of 0s and 1s. Raises ValueError naming the array and what is wrong."""
+    capture distance, an interaction matrix of 0s and 1s, and law modes (where present) that
+    name a mode. Raises ValueError naming the array and what is wrong."""
     missing = [k for k in REQUIRED_KEYS if k not in arrays]
     if missing:
         raise ValueError(f"not a wolfpack trajectory (missing {', '.join(missing)})")
@@ -161,6 +185,11 @@ def check_trajectory(arrays: Mapping[str, np.ndarray]) -> None:
     for k in numeric:
         if a[k].dtype.kind not in "biuf":
             raise ValueError(f"{k}: must hold numbers, got dtype {a[k].dtype}")
+    for k in ("wolf_mode", "target_mode"):
+        if k in a and a[k].dtype.kind not in "iu":
+            raise ValueError(f"{k}: must hold integer codes, got dtype {a[k].dtype}")
+    if "mode_names" in a and (a["mode_names"].dtype.kind != "U" or a["mode_names"].ndim != 1):
+        raise ValueError(f"mode_names: must be a list of strings, got dtype {a['mode_names'].dtype} and shape {a['mode_names'].shape}")
     for k in ("outcome", "obstacle_kind"):
         if a[k].dtype.kind != "U":
             raise ValueError(f"{k}: must hold strings, got dtype {a[k].dtype}")
@@ -191,6 +220,12 @@ def check_trajectory(arrays: Mapping[str, np.ndarray]) -> None:
             raise ValueError(f"{key}: expected a scalar, got shape {a[key].shape}")
     if "target_capture_step" in a:
         shape("target_capture_step", (m,), "[M]")
+    names = len(a["mode_names"]) if "mode_names" in a else len(_core.LAW_MODES)
+    for key, width, meaning in (("wolf_mode", n, "[T+1, N]"), ("target_mode", m, "[T+1, M]")):
+        if key in a:
+            shape(key, (rows, width), meaning)
+            if a[key].size and not (0 <= int(a[key].min()) and int(a[key].max()) < names):
+                raise ValueError(f"{key}: codes must lie in [0, {names}) (mode_names), got {int(a[key].min())} to {int(a[key].max())}")
     shape("border", (4,), "[x_min, y_min, x_max, y_max]")
     for key in ("wolves", "targets", "energy", "obstacle_poses", "obstacle_radius", "border", "ts", "capture_distance"):
         bad = ~np.isfinite(a[key])

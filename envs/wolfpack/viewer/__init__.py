@@ -9,8 +9,9 @@
 - :mod:`~wolfpack.viewer.cli`: the ``wolfpack view`` command.
 
 The page's script interface is ``window.wolfpack`` (read-only): ``state(step, pane=0)`` →
-``{step, wolves: [[x, y, heading], …], targets: [[x, y, heading], …]}`` in metres and radians,
-and ``ready``, ``step()``, ``lastStep()``, ``playing()``, ``item()``, ``items()``,
+``{step, wolves: [[x, y, heading], …], targets: [[x, y, heading], …], wolf_modes: [name, …],
+target_modes: [name, …]}`` in metres and radians (each agent's law mode at that step, null
+where the episode records none), and ``ready``, ``step()``, ``lastStep()``, ``playing()``, ``item()``, ``items()``,
 ``episodes()``, ``panes()``, ``toScreen(x, y, pane=0)``, ``colours()``, ``selected()``.
 """
 

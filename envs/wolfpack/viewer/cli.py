@@ -41,8 +41,10 @@ Five ways:
       model was made with (a law's is played by name)
 
 Positions are stored to 1 mm and angles to 0.001 rad (a 300-step episode of the documented
-scenario takes about 50 KB). The page's script interface, window.wolfpack.state(step), gives
-{step, wolves: [[x, y, heading], ...], targets: [...]} in metres and radians.
+scenario takes about 50 KB). Clicking an agent lists its state at that step, with the mode its
+law was in. The page's script interface, window.wolfpack.state(step), gives {step, wolves:
+[[x, y, heading], ...], targets: [...], wolf_modes: [...], target_modes: [...]} in metres and
+radians.
 
 FILE.html must not exist, unless --force, which replaces only a page 'wolfpack view' wrote.
 Bad input (a folder with no trajectories, a truncated or foreign npz, runs of different

@@ -14,6 +14,7 @@ obstacle centres, angles   1 mm, 0.001  0.5 mm, 0.0005 rad
 energy (J)                 1 mJ         0.5 mJ
 obstacle shapes (m)        0.1 mm       0.05 mm (written as decimals, not differenced)
 interaction links          exact        one bit per observer-observed pair and step
+law modes                  exact        run lengths of each agent's mode code
 =========================  ===========  ====================================================
 
 The differences are taken between integers, so decoding adds them back exactly: the error
@@ -25,6 +26,11 @@ to its grid, differenced along the rows (the first row kept as it is), read seri
 (``[S, rows]``, so that one series' small steps sit together) and each integer written as a
 zigzag LEB128 varint: 0, -1, 1, -2, … become 0, 1, 2, 3, …, seven bits a byte, the high bit
 set on every byte but a number's last. ``page.js`` reads it back the same way.
+
+The law modes (``wolf_mode``, ``target_mode`` of ``trajectory.npz``) change seldom, so they are
+run lengths instead: agent by agent, (code, run length) pairs as the same varints, the runs of
+one agent covering its rows. Their codes index the page's ``mode_names``
+(``wolfpack._core.LAW_MODES``); a file recorded with other names is mapped onto those by name.
 """
 
 from __future__ import annotations
@@ -34,6 +40,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from wolfpack import _core
+
+#: The law modes' names, indexed by the codes the page holds.
+MODE_NAMES: tuple[str, ...] = tuple(_core.LAW_MODES)
 #: Grid of positions (m) and of speeds (m/s).
 POSITION_STEP = 1e-3
 #: Grid of angles (rad) and of turn rates (rad/s).
@@ -123,6 +133,60 @@ def unpack_bits(text: str, shape: tuple[int, ...]) -> np.ndarray:
     return np.unpackbits(np.frombuffer(base64.b64decode(text), dtype=np.uint8), count=count).reshape(shape)
 
 
+def pack_runs(codes: np.ndarray) -> str:
+    """Non-negative integer ``codes`` [rows, S] as base64 text: series by series, (code, run
+    length) pairs as varints."""
+    c = np.asarray(codes, dtype=np.int64)
+    c = c.reshape(c.shape[0], -1).T  # [S, rows]
+    pairs = []
+    for series in c:
+        if not series.size:
+            continue
+        starts = np.flatnonzero(np.concatenate([[True], series[1:] != series[:-1]]))
+        lengths = np.diff(np.append(starts, series.size))
+        pairs.append(np.stack([series[starts], lengths], axis=1).ravel())
+    return base64.b64encode(_varints(np.concatenate(pairs) if pairs else np.zeros(0, np.int64))).decode("ascii")
+
+
+def unpack_runs(text: str, rows: int, width: int) -> np.ndarray:
+    """The inverse of :func:`pack_runs`: int64 ``[rows, width]``."""
+    data = base64.b64decode(text)
+    out = np.empty((width, rows), dtype=np.int64)
+    values, pos = _read_all_varints(data), 0
+    for s in range(width):
+        t = 0
+        while t < rows:
+            code, length = values[pos], values[pos + 1]
+            pos += 2
+            if length < 1 or t + length > rows:
+                raise ValueError(f"series {s}: a run of {length} at row {t} of {rows}")
+            out[s, t : t + length] = code
+            t += length
+    if pos != len(values):
+        raise ValueError(f"{len(values) - pos} numbers left after {width} series")
+    return out.T
+
+
+def _read_all_varints(data: bytes) -> np.ndarray:
+    """Every zigzag varint of ``data``."""
+    ends = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) < 0x80)
+    return _read_varints(data, len(ends))
+
+
+def page_modes(arrays: Mapping[str, np.ndarray]) -> np.ndarray | None:
+    """The episode's law modes [T+1, N+M] (wolves first) as codes of :data:`MODE_NAMES`, or
+    None where the file records none (older files). A file written with other names is mapped
+    onto these by name; a name they lack becomes 0, none."""
+    if "wolf_mode" not in arrays or "target_mode" not in arrays:
+        return None
+    codes = np.concatenate([np.asarray(arrays["wolf_mode"]), np.asarray(arrays["target_mode"])], axis=1).astype(np.int64)
+    names = tuple(str(n) for n in np.asarray(arrays["mode_names"]).reshape(-1)) if "mode_names" in arrays else MODE_NAMES
+    if names != MODE_NAMES:
+        lookup = np.array([MODE_NAMES.index(n) if n in MODE_NAMES else 0 for n in names] or [0], dtype=np.int64)
+        codes = lookup[np.clip(codes, 0, len(lookup) - 1)]
+    return codes
+
+
 def first_sighting(arrays: Mapping[str, np.ndarray]) -> int:
     """The first step at which a wolf sensed a target (the interaction matrix: row = observer),
     or -1 when none ever did."""
@@ -153,7 +217,7 @@ def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], 
     collisions = [int(c) for c in np.asarray(arrays.get("collisions", np.zeros(n + m))).reshape(-1)]
     ends = [int(c) for c in np.asarray(arrays["target_capture_step"]).reshape(-1)] if "target_capture_step" in arrays else [rows - 1 if outcome in ("captured", "cornered") else -1] * m
     agent_params = params["agents"]
-    return {
+    episode = {
         "label": label,
         "seed": _int(arrays, "seed"),
         "outcome": outcome,
@@ -189,18 +253,26 @@ def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], 
         "energy": pack_series(np.asarray(arrays["energy"], dtype=np.float64)[..., None], ENERGY_STEP),
         "interaction": pack_bits(arrays["interaction"]),
     }
+    modes = page_modes(arrays)
+    if modes is not None:  # older files record none: the page then shows none
+        episode["modes"] = pack_runs(modes)
+    return episode
 
 
 def decode_episode(episode: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """What the page reads back from :func:`encode_episode`'s object: ``wolves`` [T+1, N, 5],
     ``targets`` [T+1, M, 5], ``obstacle_poses`` [T+1, K, 3], ``energy`` [T+1, N+M],
-    ``interaction`` [T, N+M, N+M] (the Python twin of ``page.js``'s decoder)."""
+    ``interaction`` [T, N+M, N+M], and where the episode has them ``modes`` [T+1, N+M] (codes
+    of :data:`MODE_NAMES`, wolves first) (the Python twin of ``page.js``'s decoder)."""
     rows, n, m, k = episode["steps"] + 1, episode["wolves"], episode["targets"], len(episode["obstacle_kind"])
     agents = unpack_series(episode["agents"], rows, (n + m, 5), AGENT_STEPS)
-    return {
+    out = {
         "wolves": agents[:, :n],
         "targets": agents[:, n:],
         "obstacle_poses": unpack_series(episode["poses"], rows, (k, 3), POSE_STEPS) if k else np.zeros((rows, 0, 3)),
         "energy": unpack_series(episode["energy"], rows, (n + m, 1), ENERGY_STEP)[..., 0],
         "interaction": unpack_bits(episode["interaction"], (rows - 1, n + m, n + m)),
     }
+    if episode.get("modes") is not None:
+        out["modes"] = unpack_runs(episode["modes"], rows, n + m)
+    return out

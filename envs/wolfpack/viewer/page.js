@@ -46,6 +46,32 @@
     return out;
   }
 
+  // The law modes: agent by agent, (code, run length) pairs of the same varints; returned
+  // row-major (rows x width codes).
+  function runs(text, rows, width) {
+    const bytes = bytesOf(text), out = new Uint8Array(rows * width);
+    let p = 0;
+    function next() {
+      let v = 0, mul = 1, b;
+      do {
+        if (p >= bytes.length) throw new Error("truncated mode data");
+        b = bytes[p++];
+        v += (b & 127) * mul;
+        mul *= 128;
+      } while (b & 128);
+      return v % 2 ? -(v + 1) / 2 : v / 2;
+    }
+    for (let s = 0; s < width; s++) {
+      for (let t = 0; t < rows;) {
+        const code = next(), length = next();
+        if (!(length >= 1 && t + length <= rows)) throw new Error("mode data longer than its episode");
+        for (const end = t + length; t < end; t++) out[t * width + s] = code;
+      }
+    }
+    if (p !== bytes.length) throw new Error("mode data longer than its shape");
+    return out;
+  }
+
   const decoded = new Map();
   function episode(index) {
     if (decoded.has(index)) return decoded.get(index);
@@ -58,6 +84,7 @@
       poses: K ? series(e.poses, rows, K * 3, g.pose) : new Float64Array(0),
       energy: series(e.energy, rows, A, [g.energy]),
       links: bytesOf(e.interaction),
+      modes: e.modes ? runs(e.modes, rows, A) : null, // null: the file recorded none
     };
     decoded.set(index, ep);
     return ep;
@@ -72,6 +99,11 @@
     if (t < 1) return false;
     const bit = ((t - 1) * ep.A + i) * ep.A + j;
     return ((ep.links[bit >> 3] >> (7 - (bit & 7))) & 1) === 1;
+  }
+  // The name of the mode agent a's law was in at the step that led to state t ("none" at t = 0
+  // and where no law drove it), or null where the episode records no modes.
+  function modeName(ep, t, a) {
+    return ep.modes ? DATA.mode_names[ep.modes[t * ep.A + a]] || "none" : null;
   }
   function captured(ep, j, t) {
     const end = ep.meta.target_capture_step[j];
@@ -488,6 +520,8 @@
       const end = ep.meta.target_capture_step[a - ep.N];
       rows.push(["hunt", end >= 0 && end <= t ? "ended at step " + end : "going on"]);
     }
+    const mode = modeName(ep, t, a);
+    if (mode !== null) rows.splice(2, 0, ["mode", t === 0 ? "(from step 1)" : mode === "none" ? "none (no law drove it)" : mode]);
     const colour = a < ep.N ? wolfColour(a) : C.target;
     box.innerHTML = "";
     const head = document.createElement("b");
@@ -831,8 +865,11 @@
   const api = {
     get ready() { return ready; },
     version: DATA.version,
-    // {step, wolves: [[x, y, heading], ...], targets: [...]} (m, rad) of the episode shown in
-    // pane `pane` (default 0) at `step` (clamped to the episode; default the step shown).
+    // {step, wolves: [[x, y, heading], ...], targets: [...], wolf_modes: [name, ...],
+    // target_modes: [...]} (m, rad) of the episode shown in pane `pane` (default 0) at `step`
+    // (clamped to the episode; default the step shown). A mode is the name of the mode each
+    // agent's law was in at the step that led to this state ("none" at step 0 and where no law
+    // drove it); wolf_modes and target_modes are null where the episode records no modes.
     state: function (step, pane) {
       const ep = paneEpisode(checkPane(pane));
       const t = Math.max(0, Math.min(ep.rows - 1, step === undefined ? view.step : Math.round(step)));
@@ -840,7 +877,13 @@
       const wolves = [], targets = [];
       for (let i = 0; i < ep.N; i++) wolves.push(pick3(i));
       for (let j = 0; j < ep.M; j++) targets.push(pick3(ep.N + j));
-      return { step: t, wolves: wolves, targets: targets };
+      const modes = function (from, count) {
+        if (!ep.modes) return null;
+        const out = [];
+        for (let a = from; a < from + count; a++) out.push(modeName(ep, t, a));
+        return out;
+      };
+      return { step: t, wolves: wolves, targets: targets, wolf_modes: modes(0, ep.N), target_modes: modes(ep.N, ep.M) };
     },
     step: function () { return view.step; },
     lastStep: function () { return lastStep(); },

@@ -63,6 +63,7 @@ def page_data(episodes: Sequence[dict], items: Sequence[dict] | None = None, pan
         "version": _core.__version__,
         "subtitle": subtitle,
         "grid": {"agent": list(encode.AGENT_STEPS), "pose": list(encode.POSE_STEPS), "energy": encode.ENERGY_STEP},
+        "mode_names": list(encode.MODE_NAMES),
         "colours": colours(),
         "panes": list(panes) if panes else None,
         "items": list(items),

@@ -14,7 +14,7 @@ import numpy as np
 
 from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step
-from wolfpack.logs import _vertices_table
+from wolfpack.logs import _vertices_table, mode_arrays
 
 
 def _kind(o: dict) -> str:
@@ -110,6 +110,8 @@ def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: i
                 "border": border,
                 "ts": np.array(float(resolved["world"]["ts"])),
                 "capture_distance": np.array(float(resolved["capture"]["distance"])),
+                # the laws' modes (0, none, for a side a model drives)
+                **mode_arrays({side: np.stack([x[side] for x in s]) for side in ("wolf_mode", "target_mode")}),
             }
         )
     return result

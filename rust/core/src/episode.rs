@@ -22,6 +22,11 @@ pub struct Trajectory {
     pub energy: Vec<f64>,
     /// [T, N+M, N+M] interaction matrices.
     pub interaction: Vec<u8>,
+    /// [T+1, N]: the [`LawMode`](crate::scene::LawMode) code of each wolf's law in the step
+    /// that led to each state; row 0 (no step yet) is 0, none.
+    pub wolf_modes: Vec<u8>,
+    /// [T+1, M], as `wolf_modes`.
+    pub target_modes: Vec<u8>,
     /// [T+1, K, 3]: obstacle centre x, y and polygon angle (rad), for plots and replays.
     pub obstacles: Vec<f64>,
     /// The K obstacles' shapes (constant over the episode).
@@ -46,6 +51,8 @@ impl Trajectory {
             self.targets.extend_from_slice(&[a.pos.x, a.pos.y, a.theta, a.v, a.omega]);
         }
         self.energy.extend(w.wolves.iter().chain(&w.targets).map(|a| a.energy));
+        self.wolf_modes.extend(w.wolf_mode.iter().map(|&m| m as u8));
+        self.target_modes.extend(w.target_mode.iter().map(|&m| m as u8));
         for o in &w.obstacles {
             self.obstacles.extend_from_slice(&[o.center.x, o.center.y, o.angle]);
         }
@@ -157,6 +164,8 @@ fn run_prevalidated(params: &Arc<Params>, seed: u64, layout: Option<&Layout>, re
             targets: Vec::with_capacity(rows * m * 5),
             energy: Vec::with_capacity(rows * (n + m)),
             interaction: Vec::with_capacity((rows - 1) * (n + m) * (n + m)),
+            wolf_modes: Vec::with_capacity(rows * n),
+            target_modes: Vec::with_capacity(rows * m),
             obstacles: Vec::with_capacity(rows * world.obstacles.len() * 3),
             obstacle_shapes: Trajectory::shapes(&world),
         };

@@ -6,7 +6,7 @@
 //! both.
 
 use crate::policies::{self, saturator::saturate};
-use crate::scene::Command;
+use crate::scene::{Command, LawMode};
 use crate::world::{Controls, Desired, Outcome, World};
 
 impl World {
@@ -64,18 +64,21 @@ impl World {
 }
 
 /// Every controller reads the same snapshot; the step's commands land in the world's command
-/// buffers. A side driven by given commands still runs its law when `track_laws` is set, so that
+/// buffers, and the branch of each law that decided in `wolf_mode` / `target_mode` (none for a
+/// side driven by given commands). A side driven by given commands still runs its law when `track_laws` is set, so that
 /// the law's memory (and its random stream) follows the episode for `expert_desired`. Kept out
 /// of line: callgrind profiles (BENCHMARKS.md) attribute the step's cost to it by name.
 #[inline(never)]
 fn control(c: Controls, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Command]>) {
-    let Controls { snap, wolf_memory, target_memory, wolf_cmds: wolf_out, target_cmds: target_out, interaction, scratch_row, rng_policy, track_laws } = c;
+    let Controls { snap, wolf_memory, target_memory, wolf_cmds: wolf_out, target_cmds: target_out, interaction, scratch_row, wolf_mode, target_mode, rng_policy, track_laws } = c;
     let (n, k) = (snap.wolves.len(), snap.wolves.len() + snap.targets.len());
     let wolf_side = &snap.params.agents.wolf;
     let target_side = &snap.params.agents.target;
     let ts = snap.params.world.ts;
     if let Some(c) = wolf_cmds {
         wolf_out.copy_from_slice(c);
+        // No law decided, even where one runs to keep its memory.
+        wolf_mode.fill(LawMode::None);
     }
     if wolf_cmds.is_none() || track_laws {
         for i in 0..n {
@@ -84,18 +87,52 @@ fn control(c: Controls, wolf_cmds: Option<&[Command]>, target_cmds: Option<&[Com
             let (v_d, theta_d) = policies::wolf_desired(i, &snap, &mut wolf_memory[i], row);
             if wolf_cmds.is_none() {
                 wolf_out[i] = saturate(v_d, theta_d, snap.wolves[i].theta, wolf_side.v_max, wolf_side.omega_max, ts);
+                wolf_mode[i] = wolf_memory[i].mode();
             }
         }
     }
     if let Some(c) = target_cmds {
         target_out.copy_from_slice(c);
+        target_mode.fill(LawMode::None);
     }
     if target_cmds.is_none() || track_laws {
         for j in 0..snap.targets.len() {
             let (v_d, theta_d) = policies::target_desired(j, &snap, &mut target_memory[j], rng_policy);
             if target_cmds.is_none() {
                 target_out[j] = saturate(v_d, theta_d, snap.targets[j].theta, target_side.v_max, target_side.omega_max, ts);
+                target_mode[j] = target_memory[j].mode;
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use crate::config::{Params, TargetPolicy, WolfPolicy};
+    use crate::scene::{Command, LawMode};
+    use crate::world::World;
+
+    #[test]
+    fn each_step_notes_the_mode_of_every_law_that_drove() {
+        for (wolves, targets) in [(WolfPolicy::Seed000, TargetPolicy::Escape), (WolfPolicy::Bvc, TargetPolicy::Random), (WolfPolicy::Formation, TargetPolicy::Still)] {
+            let mut p = Params::default();
+            (p.policies.wolves, p.policies.targets) = (wolves, targets);
+            let mut w = World::new(Arc::new(p), 5).unwrap();
+            assert!(w.wolf_mode.iter().chain(&w.target_mode).all(|&m| m == LawMode::None), "before the first step");
+            w.step();
+            assert!(w.wolf_mode.iter().chain(&w.target_mode).all(|&m| m != LawMode::None), "{wolves:?}: {:?} {:?}", w.wolf_mode, w.target_mode);
+            assert_eq!(w.wolf_mode, w.wolf_memory.iter().map(|m| m.mode()).collect::<Vec<_>>());
+            // Given commands drive the wolves: no law decided for them, even a tracked one.
+            for track in [false, true] {
+                w.track_laws = track;
+                w.step_with(Some(&vec![Command::default(); w.n_wolves()]), None);
+                assert!(w.wolf_mode.iter().all(|&m| m == LawMode::None), "{wolves:?}, tracked {track}");
+                assert!(w.target_mode.iter().all(|&m| m != LawMode::None));
+            }
+            w.step_with(None, Some(&vec![Command::default(); w.n_targets()]));
+            assert!(w.wolf_mode.iter().all(|&m| m != LawMode::None) && w.target_mode.iter().all(|&m| m == LawMode::None));
         }
     }
 }

@@ -393,3 +393,37 @@ fn the_episode_runner_equals_stepping_by_hand_bit_for_bit() {
         }
     }
 }
+
+/// The recorded law modes (`Trajectory::wolf_modes` / `target_modes`): row 0 is none, every
+/// later row holds the mode the world noted in that step, and over an episode each wolf law
+/// passes through several of its modes.
+#[test]
+fn recorded_modes_are_the_steps_modes() {
+    use wolfpack_core::config::WolfPolicy;
+    use wolfpack_core::episode::run_episodes;
+    use wolfpack_core::world::LawMode;
+    for law in [WolfPolicy::Seed000, WolfPolicy::Bvc, WolfPolicy::Formation] {
+        let mut p = params();
+        p.policies.wolves = law;
+        p.world.max_steps = 150;
+        let runs = run_episodes(&p, 7, 0, 3, None, true, Some(1)).unwrap();
+        let p = Arc::new(p);
+        let mut seen = std::collections::BTreeSet::new();
+        for (k, r) in runs.iter().enumerate() {
+            let t = r.trajectory.as_ref().unwrap();
+            let (n, m, rows) = (r.wolves, r.targets, r.steps as usize + 1);
+            assert_eq!((t.wolf_modes.len(), t.target_modes.len()), (rows * n, rows * m), "{law:?} episode {k}");
+            let mut w = World::new(p.clone(), 7 + k as u64).unwrap();
+            let mut by_hand: (Vec<u8>, Vec<u8>) = (vec![0; n], vec![0; m]);
+            while !w.is_done() {
+                w.step();
+                by_hand.0.extend(w.wolf_mode.iter().map(|&x| x as u8));
+                by_hand.1.extend(w.target_mode.iter().map(|&x| x as u8));
+            }
+            assert_eq!((&t.wolf_modes, &t.target_modes), (&by_hand.0, &by_hand.1), "{law:?} episode {k}");
+            assert!(t.wolf_modes[n..].iter().chain(&t.target_modes[m..]).all(|&c| c != 0 && LawMode::from_code(c).is_some()), "{law:?}: a scripted step without a mode");
+            seen.extend(t.wolf_modes[n..].iter().map(|&c| LawMode::from_code(c).unwrap()));
+        }
+        assert!(seen.len() >= 2, "{law:?} wolves only ever in {seen:?}");
+    }
+}

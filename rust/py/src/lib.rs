@@ -274,6 +274,8 @@ fn trajectory_to_py<'py>(py: Python<'py>, t: Trajectory, n: usize, m: usize) -> 
     d.set_item("targets", array(py, t.targets, &[rows, m, 5])?)?;
     d.set_item("energy", array(py, t.energy, &[rows, n + m])?)?;
     d.set_item("interaction", array(py, t.interaction, &[rows - 1, n + m, n + m])?)?;
+    d.set_item("wolf_mode", array(py, t.wolf_modes, &[rows, n])?)?;
+    d.set_item("target_mode", array(py, t.target_modes, &[rows, m])?)?;
     d.set_item("obstacle_poses", array(py, t.obstacles, &[rows, k, 3])?)?;
     let shapes = PyList::empty(py);
     for s in t.obstacle_shapes {
@@ -312,7 +314,9 @@ fn result_to_py<'py>(py: Python<'py>, r: EpisodeResult) -> PyResult<Bound<'py, P
 /// target was cornered, or None), wolves,
 /// targets, energy [N+M], collisions [N+M], and with `record` a `trajectory` dict of arrays
 /// (wolves [T+1,N,5], targets [T+1,M,5], energy [T+1,N+M], interaction uint8 [T,N+M,N+M],
-/// obstacle_poses [T+1,K,3], obstacle_shapes list).
+/// wolf_mode uint8 [T+1,N] and target_mode uint8 [T+1,M] (each law's mode in the step that led
+/// to the state, codes into `LAW_MODES`; row 0 is 0), obstacle_poses [T+1,K,3], obstacle_shapes
+/// list).
 #[pyfunction]
 #[pyo3(signature = (params, seed, first=0, count=1, layout=None, record=false, threads=None))]
 #[allow(clippy::too_many_arguments)]
@@ -648,7 +652,8 @@ impl PyBatchEnv {
     }
 
     /// World `index`'s state: wolves [N, 5] and targets [M, 5] (x, y, θ, v, ω), energy [N+M],
-    /// interaction [(N+M), (N+M)] uint8, captured [M], cornered [M] (ever cornered), obstacles (list of dicts: kind, moving,
+    /// interaction [(N+M), (N+M)] uint8, wolf_mode [N] and target_mode [M] uint8 (the last step's law modes, codes into
+    /// `LAW_MODES`; 0 where given commands drove), captured [M], cornered [M] (ever cornered), obstacles (list of dicts: kind, moving,
     /// center, radius, angle, vertices [world], local [at angle 0]), step,
     /// outcome, seed, episode.
     fn world_state<'py>(slf: &Bound<'py, Self>, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
@@ -662,6 +667,8 @@ impl PyBatchEnv {
         d.set_item("targets", array(py, w.targets.iter().flat_map(pose).collect(), &[m, 5])?)?;
         d.set_item("energy", PyArray1::from_vec(py, w.wolves.iter().chain(&w.targets).map(|a| a.energy).collect()))?;
         d.set_item("interaction", array(py, w.interaction.clone(), &[n + m, n + m])?)?;
+        d.set_item("wolf_mode", PyArray1::from_vec(py, w.wolf_mode.iter().map(|&x| x as u8).collect()))?;
+        d.set_item("target_mode", PyArray1::from_vec(py, w.target_mode.iter().map(|&x| x as u8).collect()))?;
         d.set_item("captured", PyArray1::from_vec(py, w.target_captured.clone()))?;
         d.set_item("cornered", PyArray1::from_vec(py, w.target_cornered_step.iter().map(Option::is_some).collect()))?;
         let obstacles = PyList::empty(py);
@@ -712,6 +719,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OUTCOMES", PyTuple::new(py, wolfpack_core::world::Outcome::ALL.map(|o| o.as_str()))?)?;
     m.add("WOLF_LAWS", PyTuple::new(py, wolfpack_core::config::WolfPolicy::ALL.map(|l| l.as_str()))?)?;
     m.add("TARGET_LAWS", PyTuple::new(py, wolfpack_core::config::TargetPolicy::ALL.map(|l| l.as_str()))?)?;
+    // The laws' modes, indexed by the codes of the trajectories' wolf_mode / target_mode.
+    m.add("LAW_MODES", PyTuple::new(py, wolfpack_core::world::LawMode::NAMES)?)?;
     m.add("ENTITY_FIELDS", PyTuple::new(py, wolfpack_core::observe::ENTITY_FIELDS)?)?;
     m.add("ENTITY_STATE_FIELDS", PyTuple::new(py, wolfpack_core::state::ENTITY_STATE_FIELDS)?)?;
     m.add("ENTITY_SCALE", wolfpack_core::observe::ENTITY_SCALE)?;

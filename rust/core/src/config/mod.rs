@@ -641,12 +641,13 @@ impl Params {
         Ok(())
     }
 
-    /// Bytes one recorded episode needs at most (poses, energies, interaction matrices and
-    /// obstacle poses for every step up to `world.max_steps`), checked before recording.
+    /// Bytes one recorded episode needs at most (poses, energies, interaction matrices, law
+    /// modes and obstacle poses for every step up to `world.max_steps`), checked before
+    /// recording.
     pub fn recorded_episode_bytes(&self) -> u64 {
         let (n, m, k) = (self.world.wolves as u64, self.world.targets as u64, self.obstacles.total() as u64);
         let rows = self.world.max_steps as u64 + 1;
-        rows * (8 * (5 * (n + m) + (n + m) + 3 * k)) + (rows - 1) * (n + m) * (n + m)
+        rows * (8 * (5 * (n + m) + (n + m) + 3 * k) + (n + m)) + (rows - 1) * (n + m) * (n + m)
     }
 }
 

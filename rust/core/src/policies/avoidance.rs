@@ -53,7 +53,7 @@ use crate::config::{AvoidanceParams, KappaRow};
 use crate::math::{acos, angle_of, wrap, Vec2, FRAC_PI_2, PI, TAU};
 use crate::policies::saturator::{next_heading, saturate};
 pub use crate::scene::DangerMemory;
-use crate::scene::{Obstacle, ObstacleKind};
+use crate::scene::{LawMode, Obstacle, ObstacleKind};
 
 /// Items kept per agent and step; more are dropped farthest first (12 obstacles + 4 walls +
 /// a few partners in the documented scenario).
@@ -381,7 +381,8 @@ fn close_partner(i: usize, snap: &Snapshot, theta_d: f64, row: &mut [u8]) -> Opt
     (sum != Vec2::zeros()).then(|| angle_of(sum))
 }
 
-/// Which rule of SPEC §4 decided an agent's heading (for tests and diagnostics).
+/// Which rule of SPEC §4 decided an agent's heading (for tests, diagnostics and the law's
+/// [`LawMode`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
     /// Early exit: avoidance skipped.
@@ -390,8 +391,26 @@ pub enum Mode {
     Emergency,
     /// Steering away from partners ahead.
     ClosePartner,
-    /// Normal mode; `true` when θ_d was moved to an interval edge (or, for a target, held).
+    /// Normal mode; `true` when θ_d was moved to an interval edge.
     Normal(bool),
+    /// The target variant kept the current heading: a step towards θ_d would turn into an
+    /// interval.
+    Hold,
+}
+
+impl Mode {
+    /// The law's mode once avoidance has run: avoidance's own where it changed the desired
+    /// velocity or skipped itself, else `base`, the branch of the law that asked for it.
+    pub fn law_mode(self, base: LawMode) -> LawMode {
+        match self {
+            Mode::EarlyExit => LawMode::EarlyExit,
+            Mode::Emergency => LawMode::Emergency,
+            Mode::ClosePartner => LawMode::ClosePartner,
+            Mode::Normal(true) => LawMode::AvoidEdge,
+            Mode::Normal(false) => base,
+            Mode::Hold => LawMode::AvoidHold,
+        }
+    }
 }
 
 /// Avoidance for wolf `i` (SPEC §4, wolf rows). Returns the new (v_d, θ_d) for the saturator and
@@ -448,6 +467,12 @@ pub fn normal_mode(merged: &Merged, theta_d: f64, margin: f64) -> f64 {
 /// Avoidance for target `j` (SPEC §4, target rows and the target variant). Wolves are not
 /// obstacles for the target.
 pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut DangerMemory) -> (f64, f64) {
+    let (v, th, _) = target_mode(j, snap, v_d, theta_d, danger);
+    (v, th)
+}
+
+/// [`target`], also telling which rule decided.
+pub fn target_mode(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut DangerMemory) -> (f64, f64, Mode) {
     let p = snap.params;
     let a = &p.avoidance;
     let me = snap.targets[j];
@@ -459,9 +484,11 @@ pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut Da
     merged.fill(items.as_slice(), kappa_row(a, false, items.count()), a.wall_emergency);
 
     if let Some(away) = tick_danger(danger, merged.emergency(a.danger_distance), a.danger_steps) {
-        return dash(away, me.theta, side.v_max);
+        let (v, th) = dash(away, me.theta, side.v_max);
+        return (v, th, Mode::Emergency);
     }
-    (v_d, target_variant(&merged, v_d, theta_d, me.theta, side.v_max, side.omega_max, p.world.ts, a.edge_margin, a.target_edge_from_desired))
+    let (th, mode) = target_variant_mode(&merged, v_d, theta_d, me.theta, side.v_max, side.omega_max, p.world.ts, a.edge_margin, a.target_edge_from_desired);
+    (v_d, th, mode)
 }
 
 /// The target variant of normal mode: test the current heading θ, not θ_d. θ inside an
@@ -470,15 +497,22 @@ pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut Da
 /// the current heading.
 #[allow(clippy::too_many_arguments)]
 pub fn target_variant(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max: f64, omega_max: f64, ts: f64, margin: f64, from_desired: bool) -> f64 {
+    target_variant_mode(merged, v_d, theta_d, theta, v_max, omega_max, ts, margin, from_desired).0
+}
+
+/// [`target_variant`], also telling which rule decided: `Normal(true)` (an edge), `Hold` (the
+/// current heading kept) or `Normal(false)` (θ_d kept).
+#[allow(clippy::too_many_arguments)]
+pub fn target_variant_mode(merged: &Merged, v_d: f64, theta_d: f64, theta: f64, v_max: f64, omega_max: f64, ts: f64, margin: f64, from_desired: bool) -> (f64, Mode) {
     if let Some(iv) = merged.containing(theta) {
         let from = if from_desired { theta_d } else { theta };
-        return if iv.is_full() { theta_d } else { iv.nearer_edge(from, margin) };
+        return if iv.is_full() { (theta_d, Mode::Normal(false)) } else { (iv.nearer_edge(from, margin), Mode::Normal(true)) };
     }
     let next = next_heading(theta, saturate(v_d, theta_d, theta, v_max, omega_max, ts), ts);
     if merged.containing(next).is_some() {
-        theta
+        (theta, Mode::Hold)
     } else {
-        theta_d
+        (theta_d, Mode::Normal(false))
     }
 }
 

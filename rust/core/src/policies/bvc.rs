@@ -32,7 +32,7 @@ use crate::geometry::{edges, polygon_closest_point};
 use crate::math::{angle_of, cos, cross, sin, Point2, Vec2};
 /// The bvc law's memory: the pack's last sighting and the assigned hunting point.
 pub use crate::scene::BvcMemory as Memory;
-use crate::scene::Obstacle;
+use crate::scene::{LawMode, Obstacle};
 
 /// [`assign`], memoised per thread: every wolf of the pack solves the same problem.
 fn assign_memoised(wolves: &[Vec2], points: &[Vec2]) -> Vec<usize> {
@@ -101,6 +101,17 @@ pub enum GoalCase {
     Edge,
     /// At a vertex.
     Vertex,
+}
+
+impl GoalCase {
+    /// The law's mode when this case decides the goal.
+    pub fn law_mode(self) -> LawMode {
+        match self {
+            GoalCase::Inside => LawMode::CellInside,
+            GoalCase::Edge => LawMode::CellEdge,
+            GoalCase::Vertex => LawMode::CellVertex,
+        }
+    }
 }
 
 /// The closest point of the polygon's boundary to `q`, and whether it is on an edge's interior
@@ -209,6 +220,7 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8])
     let me = snap.wolves[i];
     let n = snap.wolves.len();
     let Some(target_pos) = mem.sighting.share(i, snap).map(|t| t.pos) else {
+        mem.mode = LawMode::Wait;
         return (0.0, me.theta);
     };
     let positions: Vec<Vec2> = snap.wolves.iter().map(|w| w.pos).collect();
@@ -221,15 +233,18 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8])
 
     let near_obstacle = snap.obstacles.iter().map(|o| o.distance(me.pos)).fold(f64::INFINITY, f64::min);
     let near_wolf = positions.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, q)| (q - me.pos).norm()).fold(f64::INFINITY, f64::min);
-    let goal = if near_obstacle.min(near_wolf) < b.d_min {
+    let (goal, case) = if near_obstacle.min(near_wolf) < b.d_min {
         let (poly, used) = cell(i, &positions, snap.obstacles, p.world.border, p.agents.wolf.sense_radius, b.safety_radius, b.disc_sides);
         for j in used {
             row[j] = 1;
         }
-        closest_point(&poly, hunt).0
+        let (goal, case) = closest_point(&poly, hunt);
+        (goal, case.law_mode())
     } else {
-        hunt
+        (hunt, LawMode::Direct)
     };
+    // While nobody senses the target, the hunt is around its last sighting: that is the mode.
+    mem.mode = if mem.sighting.is_now(snap) { case } else { LawMode::Lost };
     let to = goal - me.pos;
     let d = to.norm();
     if d <= 1e-9 {
@@ -395,5 +410,59 @@ mod tests {
                 }
             }
         }
+    }
+
+    // ---- the law's mode ----
+
+    use crate::policies::fixture::Scene;
+    use crate::scene::AgentState;
+
+    /// Wolves at `wolves` hunting one target at `target`, every wolf sensing it.
+    fn hunt(wolves: &[(f64, f64)], target: (f64, f64)) -> Scene {
+        let mut s = Scene::new(Scene::wolves_at(wolves), vec![AgentState::at(target.0, target.1, 0.0)], vec![]);
+        s.wolf_senses = vec![true; wolves.len()];
+        s
+    }
+
+    fn mode_of(s: &Scene) -> LawMode {
+        let mut mem = Memory::default();
+        wolf_desired(0, &s.snap(), &mut mem, &mut s.row());
+        mem.mode
+    }
+
+    #[test]
+    fn the_mode_is_the_goal_case() {
+        // Nothing within d_min: straight for the hunting point.
+        assert_eq!(mode_of(&hunt(&[(0.0, 0.0)], (2.0, 0.0))), LawMode::Direct);
+        // Wolf 1 0.9 m away (within d_min): the cell is y ≤ 0.25 around wolf 0, whose assigned
+        // point (1.4, 0) lies inside it.
+        assert_eq!(mode_of(&hunt(&[(0.0, 0.0), (0.0, 0.9)], (2.0, 0.0))), LawMode::CellInside);
+        // A circle 0.7 m below: the cell is y ≥ −0.15. The point (1.6, −2) projects onto that
+        // edge's interior; the point (4, −1) is nearest the corner where the edge meets the
+        // sensing disc.
+        let mut s = hunt(&[(0.0, 0.0)], (1.0, -2.0));
+        s.obstacles = vec![Obstacle::circle(v(0.0, -1.2), 0.5, false)];
+        assert_eq!(mode_of(&s), LawMode::CellEdge);
+        s.targets[0] = AgentState::at(3.4, -1.0, 0.0);
+        assert_eq!(mode_of(&s), LawMode::CellVertex);
+    }
+
+    #[test]
+    fn waiting_before_any_sighting_then_lost_when_nobody_senses() {
+        let mut s = hunt(&[(0.0, 0.0)], (2.0, 0.0));
+        s.wolf_senses = vec![false];
+        let mut mem = Memory::default();
+        assert_eq!(wolf_desired(0, &s.snap(), &mut mem, &mut s.row()), (0.0, 0.0));
+        assert_eq!(mem.mode, LawMode::Wait);
+        // Sensed at step 0, then not at step 1: the pack hunts around the last sighting.
+        s.wolf_senses = vec![true];
+        wolf_desired(0, &s.snap(), &mut mem, &mut s.row());
+        assert_eq!(mem.mode, LawMode::Direct);
+        (s.wolf_senses, s.t) = (vec![false], 1);
+        let lost = wolf_desired(0, &s.snap(), &mut mem, &mut s.row());
+        assert_eq!(mem.mode, LawMode::Lost);
+        // ... with the very command of the sighting it remembers.
+        s.wolf_senses = vec![true];
+        assert_eq!(wolf_desired(0, &s.snap(), &mut Memory::default(), &mut s.row()), lost);
     }
 }

@@ -31,6 +31,7 @@ use crate::config::EscapeParams;
 use crate::math::{angle_of, wrap, Vec2};
 /// The `escape` and `random` laws' memory: their emergency.
 pub use crate::scene::EscapeMemory as Memory;
+use crate::scene::LawMode;
 
 /// The `escape` law for target `j`.
 pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> Command {
@@ -40,11 +41,16 @@ pub fn escape_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: 
 
 /// The `escape` law up to the saturator: the desired (v_d, θ_d) after avoidance.
 pub fn escape_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> (f64, f64) {
-    let (v_d, theta_d) = match snap.target_seen_at[j] {
-        None => wander(snap.targets[j].theta, &snap.params.escape, rng),
-        Some(t_seen) => flee(j, snap, t_seen),
+    let (v_d, theta_d, base) = match snap.target_seen_at[j] {
+        None => {
+            let (v, th) = wander(snap.targets[j].theta, &snap.params.escape, rng);
+            (v, th, LawMode::Wander)
+        }
+        Some(t_seen) => flee_case(j, snap, t_seen),
     };
-    avoidance::target(j, snap, v_d, theta_d, &mut mem.danger)
+    let (v, th, mode) = avoidance::target_mode(j, snap, v_d, theta_d, &mut mem.danger);
+    mem.mode = mode.law_mode(base);
+    (v, th)
 }
 
 /// The `random` law for target `j`: the wander rule forever.
@@ -56,7 +62,9 @@ pub fn random_command<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: 
 /// The `random` law up to the saturator.
 pub fn random_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut Memory, rng: &mut R) -> (f64, f64) {
     let (v_d, theta_d) = wander(snap.targets[j].theta, &snap.params.escape, rng);
-    avoidance::target(j, snap, v_d, theta_d, &mut mem.danger)
+    let (v, th, mode) = avoidance::target_mode(j, snap, v_d, theta_d, &mut mem.danger);
+    mem.mode = mode.law_mode(LawMode::Wander);
+    (v, th)
 }
 
 /// The saturator with the target's limits.
@@ -76,6 +84,13 @@ pub fn wander<R: Rng>(theta: f64, e: &EscapeParams, rng: &mut R) -> (f64, f64) {
 
 /// After the first sighting: flee the wolves sensed now at the fatigue speed, or coast.
 pub fn flee(j: usize, snap: &Snapshot, t_seen: u32) -> (f64, f64) {
+    let (v, th, _) = flee_case(j, snap, t_seen);
+    (v, th)
+}
+
+/// [`flee`] and which case gave it: [`LawMode::Flee`] (wolves sensed now) or
+/// [`LawMode::Coast`] (none).
+pub fn flee_case(j: usize, snap: &Snapshot, t_seen: u32) -> (f64, f64, LawMode) {
     let p = snap.params;
     let me = snap.targets[j];
     let r = p.agents.target.sense_radius;
@@ -90,14 +105,14 @@ pub fn flee(j: usize, snap: &Snapshot, t_seen: u32) -> (f64, f64) {
     }
     if sensed {
         let theta_d = if away == Vec2::zeros() { me.theta } else { angle_of(away) };
-        return (p.escape.fatigue_speed(t_seen, snap.t), theta_d);
+        return (p.escape.fatigue_speed(t_seen, snap.t), theta_d, LawMode::Flee);
     }
     // None sensed now: keep heading; the speed follows the curve's relative decay. The curve
     // is positive everywhere (fatigue_base > 0, the bracket lies in (1, 2)), so the ratio is
     // finite. At t = 0 there is no previous step: ratio 1.
     let prev = snap.t.saturating_sub(1);
     let ratio = p.escape.fatigue_speed(t_seen, snap.t) / p.escape.fatigue_speed(t_seen, prev);
-    (me.v * ratio, me.theta)
+    (me.v * ratio, me.theta, LawMode::Coast)
 }
 
 #[cfg(test)]
@@ -220,5 +235,56 @@ mod tests {
         let c = escape_command(0, &w.snap(), &mut Memory::default(), &mut Fixed(vec![0.0], 0));
         let edge = 2.0 * (1.0f64 / 3.0).asin() + 0.01;
         assert!(close(c.omega, (edge - 0.05) / 0.1), "{c:?}");
+    }
+
+    // ---- the law's mode ----
+
+    #[test]
+    fn the_mode_is_wander_flee_or_coast_unless_avoidance_decides() {
+        let mode = |w: &World, random: bool| {
+            let mut mem = Memory::default();
+            let mut rng = Fixed(vec![0.5, 0.75], 0);
+            if random {
+                random_desired(0, &w.snap(), &mut mem, &mut rng);
+            } else {
+                escape_desired(0, &w.snap(), &mut mem, &mut rng);
+            }
+            mem.mode
+        };
+        // Never seen: wander; seen, with a wolf 1 m away: flee; seen, none within 3 m: coast.
+        assert_eq!(mode(&scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), None, 7), false), LawMode::Wander);
+        assert_eq!(mode(&scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7), false), LawMode::Flee);
+        assert_eq!(mode(&scene(&[(4.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7), false), LawMode::Coast);
+        // random wanders even once seen.
+        assert_eq!(mode(&scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7), true), LawMode::Wander);
+        // Heading 0.05 into a moving circle 1 m ahead (no emergency): an edge.
+        let mut w = scene(&[(-5.0, 0.0)], AgentState::at(0.0, 0.0, 0.05), None, 7);
+        w.obstacles = vec![Obstacle::circle(Vec2::new(1.5, 0.0), 0.5, true)];
+        assert_eq!(mode(&w, false), LawMode::AvoidEdge);
+        // The circle at bearing 1 rad: its interval (0.32, 1.68) leaves the heading 0 free,
+        // but fleeing the wolf below (θ_d = π/2) would turn into it within one step: hold.
+        let mut w = scene(&[(0.0, -1.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7);
+        w.obstacles = vec![Obstacle::circle(Vec2::new(1.5 * 1f64.cos(), 1.5 * 1f64.sin()), 0.5, true)];
+        assert_eq!(mode(&w, false), LawMode::AvoidHold);
+        // A moving circle 0.1 m away: an emergency, whatever the law.
+        let mut w = scene(&[(-5.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), None, 7);
+        w.obstacles = vec![Obstacle::circle(Vec2::new(0.6, 0.0), 0.5, true)];
+        assert_eq!(mode(&w, false), LawMode::Emergency);
+        assert_eq!(mode(&w, true), LawMode::Emergency);
+    }
+
+    #[test]
+    fn still_and_ended_targets_note_their_mode() {
+        use crate::config::TargetPolicy;
+        use crate::policies::target_desired;
+        let mut w = scene(&[(1.0, 0.0)], AgentState::at(0.0, 0.0, 0.0), Some(0), 7);
+        let mut mem = Memory::default();
+        w.params.policies.targets = TargetPolicy::Still;
+        target_desired(0, &w.snap(), &mut mem, &mut Fixed(vec![0.5], 0));
+        assert_eq!(mem.mode, LawMode::Still);
+        w.params.policies.targets = TargetPolicy::Escape;
+        w.captured = vec![true];
+        target_desired(0, &w.snap(), &mut mem, &mut Fixed(vec![0.5], 0));
+        assert_eq!(mem.mode, LawMode::Ended);
     }
 }

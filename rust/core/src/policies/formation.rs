@@ -49,7 +49,7 @@ use crate::config::FormationParams;
 use crate::math::{angle_of, cos, sin, unit, Vec2};
 /// The formation law's memory: the pack's last sighting.
 pub use crate::scene::FormationMemory as Memory;
-use crate::scene::Obstacle;
+use crate::scene::{LawMode, Obstacle};
 
 /// A node of the obstacle graph: an obstacle's bounding disc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -174,18 +174,19 @@ pub fn spacing_potential(z: f64, spacing: f64, k: f64) -> f64 {
 }
 
 /// The virtual leader for a pack centred at `centroid` hunting at `target`: its position and
-/// velocity. Memoised per thread (every wolf of the pack asks for the same leader each step:
-/// 5× fewer path searches, no result changes).
-pub fn leader(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
+/// velocity, and whether it is the target itself (the path is shorter than `formation.lead`).
+/// Memoised per thread (every wolf of the pack asks for the same leader each step: 5× fewer
+/// path searches, no result changes).
+pub fn leader(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2, bool) {
     let mut key = vec![centroid.x, centroid.y, target.x, target.y, f.clearance, f.lead, f.leader_speed, f.ring_points as f64];
     key.extend(obstacles.iter().flat_map(|o| [o.center.x, o.center.y, o.radius]));
     thread_local! {
-        static LAST: std::cell::RefCell<super::LastCall<(Vec2, Vec2)>> = const { std::cell::RefCell::new(super::LastCall::new()) };
+        static LAST: std::cell::RefCell<super::LastCall<(Vec2, Vec2, bool)>> = const { std::cell::RefCell::new(super::LastCall::new()) };
     }
     LAST.with(|c| c.borrow_mut().get_or(key, || leader_uncached(centroid, target, obstacles, f)))
 }
 
-fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2) {
+fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2, bool) {
     let path = plan_path(centroid, target, &obstacle_nodes(obstacles), f.clearance, f.ring_points);
     // The point `lead` metres along the path (or the target).
     let mut left = f.lead;
@@ -194,11 +195,11 @@ fn leader_uncached(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &For
         let len = seg.norm();
         if len >= left && len > 0.0 {
             let dir = seg / len;
-            return (w[0] + dir * left, dir * f.leader_speed);
+            return (w[0] + dir * left, dir * f.leader_speed, false);
         }
         left -= len;
     }
-    (target, Vec2::zeros())
+    (target, Vec2::zeros(), true)
 }
 
 fn velocity(a: &crate::scene::AgentState) -> Vec2 {
@@ -212,6 +213,7 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8])
     let me = snap.wolves[i];
     let n = snap.wolves.len();
     let Some(seen) = mem.sighting.share(i, snap) else {
+        mem.mode = LawMode::Wait;
         return (0.0, me.theta);
     };
     // While nobody senses the target, the pack heads for where it would be had it kept its
@@ -221,7 +223,12 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8])
     let predicted = seen.pos + velocity(&seen) * since;
     let target_pos = Vec2::new(predicted.x.clamp(x0, x1), predicted.y.clamp(y0, y1));
     let centroid = snap.wolves.iter().map(|w| w.pos).sum::<Vec2>() / n as f64;
-    let (q_r, p_r) = leader(centroid, target_pos, snap.obstacles, f);
+    let (q_r, p_r, at_target) = leader(centroid, target_pos, snap.obstacles, f);
+    mem.mode = match (mem.sighting.is_now(snap), at_target) {
+        (false, _) => LawMode::Lost,
+        (true, true) => LawMode::Encircle,
+        (true, false) => LawMode::Lead,
+    };
     let angle = std::f64::consts::TAU * i as f64 / n as f64;
     // A slot beyond a wall (the target against it) moves inside, along the wall: a wolf
     // driving at the wall only stalls in the feasibility filter.
@@ -372,5 +379,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    // ---- the law's mode ----
+
+    use crate::policies::fixture::Scene;
+    use crate::scene::AgentState;
+
+    #[test]
+    fn the_mode_follows_the_leader_case_and_the_sighting() {
+        let mut s = Scene::new(Scene::wolves_at(&[(0.0, 0.0), (0.5, 0.0)]), vec![AgentState::at(8.0, 0.0, 0.0)], vec![]);
+        let mut mem = Memory::default();
+        // No sighting yet: stand.
+        assert_eq!(wolf_desired(0, &s.snap(), &mut mem, &mut s.row()), (0.0, 0.0));
+        assert_eq!(mem.mode, LawMode::Wait);
+        // Sensed 8 m away: the leader runs 5 m along the path, short of the target.
+        s.wolf_senses = vec![false, true];
+        wolf_desired(0, &s.snap(), &mut mem, &mut s.row());
+        assert_eq!(mem.mode, LawMode::Lead);
+        // Sensed 2 m away: the path is shorter than the lead, the leader is the target.
+        s.targets[0] = AgentState::at(2.0, 0.0, 0.0);
+        wolf_desired(0, &s.snap(), &mut mem, &mut s.row());
+        assert_eq!(mem.mode, LawMode::Encircle);
+        // Nobody senses it at the next step: heading for where it would be.
+        (s.wolf_senses, s.t) = (vec![false, false], 1);
+        wolf_desired(0, &s.snap(), &mut mem, &mut s.row());
+        assert_eq!(mem.mode, LawMode::Lost);
     }
 }

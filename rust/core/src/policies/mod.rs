@@ -21,10 +21,11 @@ use rand::Rng;
 
 use crate::config::TargetPolicy;
 
-pub use crate::scene::{Command, Sighting, Snapshot, TargetMemory, WolfMemory};
+pub use crate::scene::{Command, LawMode, Sighting, Snapshot, TargetMemory, WolfMemory};
 
 /// The configured wolf law up to the saturator: wolf i's desired (v_d, θ_d). A memory of
-/// another law (the law was changed) starts afresh as the configured law's.
+/// another law (the law was changed) starts afresh as the configured law's. The law notes in
+/// `mem` the branch that decided ([`WolfMemory::mode`]).
 pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [u8]) -> (f64, f64) {
     let law = snap.params.policies.wolves;
     if mem.law() != law {
@@ -38,15 +39,20 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut WolfMemory, row: &mut [
 }
 
 /// The configured target law up to the saturator: target j's desired (v_d, θ_d). A captured
-/// target and `still` ask for nothing (v_d = 0 along the current heading: v = ω = 0).
+/// target and `still` ask for nothing (v_d = 0 along the current heading: v = ω = 0). The law
+/// notes in `mem.mode` the branch that decided.
 pub fn target_desired<R: Rng>(j: usize, snap: &Snapshot, mem: &mut TargetMemory, rng: &mut R) -> (f64, f64) {
     if snap.target_captured[j] {
+        mem.mode = LawMode::Ended;
         return (0.0, snap.targets[j].theta);
     }
     match snap.params.policies.targets {
         TargetPolicy::Escape => escape::escape_desired(j, snap, mem, rng),
         TargetPolicy::Random => escape::random_desired(j, snap, mem, rng),
-        TargetPolicy::Still => (0.0, snap.targets[j].theta),
+        TargetPolicy::Still => {
+            mem.mode = LawMode::Still;
+            (0.0, snap.targets[j].theta)
+        }
     }
 }
 

@@ -23,6 +23,7 @@ use super::avoidance;
 use super::saturator::saturate;
 use super::{Command, Snapshot};
 use crate::math::{angle_of, pow, Vec2};
+use crate::scene::LawMode;
 /// The seed000 law's memory: its last attraction and its emergency.
 pub use crate::scene::Seed000Memory as Memory;
 
@@ -42,39 +43,43 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8])
     let s = &p.seed000;
     let me = snap.wolves[i];
 
-    let nu1 = attraction(i, snap, mem.last_attraction, row);
+    let (nu1, case) = attraction_case(i, snap, mem.last_attraction, row);
     mem.last_attraction = nu1;
     let nu2 = repulsion(i, snap, nu1, row);
     let nu = s.alpha * nu1 + s.beta * nu2;
 
     let (v_d, theta_d) = if nu == Vec2::zeros() { (0.0, me.theta) } else { (nu.norm(), angle_of(nu)) };
-    avoidance::wolf(i, snap, v_d, theta_d, &mut mem.danger, row)
+    let (v, th, mode) = avoidance::wolf_mode(i, snap, v_d, theta_d, &mut mem.danger, row);
+    mem.mode = mode.law_mode(case);
+    (v, th)
 }
 
 /// Attraction ν_i1 (SPEC §3, source eq. 5). `last` is the previous step's ν_i1.
 pub fn attraction(i: usize, snap: &Snapshot, last: Vec2, row: &mut [u8]) -> Vec2 {
+    attraction_case(i, snap, last, row).0
+}
+
+/// [`attraction`] and which of its three cases gave it: [`LawMode::Chase`] (wolf i senses its
+/// target), [`LawMode::Follow`] (a partner does) or [`LawMode::Lost`] (nobody does).
+pub fn attraction_case(i: usize, snap: &Snapshot, last: Vec2, row: &mut [u8]) -> (Vec2, LawMode) {
     let s = &snap.params.seed000;
     let pi = snap.wolves[i].pos;
     let target = snap.wolf_target[i];
     if snap.wolf_senses[i] {
         let to = snap.targets[target].pos - pi;
         let d = to.norm();
-        return if d > 0.0 { to * ((d - s.radius) / pow(d, s.tau1)) } else { Vec2::zeros() };
+        return (if d > 0.0 { to * ((d - s.radius) / pow(d, s.tau1)) } else { Vec2::zeros() }, LawMode::Chase);
     }
     // Flags from the same snapshot: the nearest wolf that senses wolf i's target.
     if let Some(j) = nearest(i, snap, |j| snap.wolf_senses[j] && snap.wolf_target[j] == target) {
         row[j] = 1;
         let to = snap.wolves[j].pos - pi;
         let d = to.norm();
-        return if d > 0.0 { to * (s.varsigma * pow(d, s.tau2)) } else { Vec2::zeros() };
+        return (if d > 0.0 { to * (s.varsigma * pow(d, s.tau2)) } else { Vec2::zeros() }, LawMode::Follow);
     }
     // Nothing sensed: the remembered direction at `lost_speed`; zero before any attraction.
     let n = last.norm();
-    if n > 0.0 {
-        last * (s.lost_speed / n)
-    } else {
-        Vec2::zeros()
-    }
+    (if n > 0.0 { last * (s.lost_speed / n) } else { Vec2::zeros() }, LawMode::Lost)
 }
 
 /// The nearest other wolf satisfying `ok` (ties: lowest index).
@@ -143,7 +148,7 @@ mod tests {
     use super::*;
     use crate::math::{FRAC_PI_2, PI};
     use crate::policies::saturator::saturate;
-    use crate::scene::AgentState;
+    use crate::scene::{AgentState, Obstacle};
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9
@@ -345,5 +350,55 @@ mod tests {
         assert!(vclose(mem.last_attraction, Vec2::new(0.0, 1.5)));
         assert!(close(c.v, 1.5) && close(c.omega, 0.0), "{c:?}");
         let _ = PI;
+    }
+
+    // ---- the law's mode ----
+
+    /// The mode wolf 0's law notes for one step of the scene.
+    fn mode_of(w: &World, last: Vec2) -> LawMode {
+        let mut mem = Memory { last_attraction: last, ..Default::default() };
+        wolf_desired(0, &w.snap(), &mut mem, &mut w.row());
+        mem.mode
+    }
+
+    #[test]
+    fn the_mode_is_the_attraction_case_unless_avoidance_decides() {
+        // Senses its target 2 m ahead, nothing in range: chase.
+        assert_eq!(mode_of(&scene(&[(0.0, 0.0)], (2.0, 0.0)), Vec2::zeros()), LawMode::Chase);
+        // Wolf 2 senses the target, wolf 0 does not; wolf 3 is exactly at partner range (no
+        // item) and its push lies across the attraction: follow.
+        assert_eq!(mode_of(&scene(&[(0.0, 0.0), (6.0, 2.5), (4.0, 0.0), (1.0, 0.0)], (6.0, 0.0)), Vec2::zeros()), LawMode::Follow);
+        // Nobody senses: lost (and at the very first step, with no attraction to keep, too).
+        assert_eq!(mode_of(&scene(&[(0.0, 0.0)], (8.0, 0.0)), Vec2::new(1.0, 0.0)), LawMode::Lost);
+        assert_eq!(mode_of(&scene(&[(0.0, 0.0)], (8.0, 0.0)), Vec2::zeros()), LawMode::Lost);
+        // A static circle straight ahead (no emergency): the heading goes to an edge.
+        let mut w = scene(&[(0.0, 0.0)], (2.0, 0.0));
+        w.obstacles = vec![Obstacle::circle(Vec2::new(0.7, 0.0), 0.5, false)];
+        assert_eq!(mode_of(&w, Vec2::zeros()), LawMode::AvoidEdge);
+        // The same circle moving: 0.2 m away, an emergency.
+        w.obstacles = vec![Obstacle::circle(Vec2::new(0.7, 0.0), 0.5, true)];
+        assert_eq!(mode_of(&w, Vec2::zeros()), LawMode::Emergency);
+        // A partner 0.3 m ahead on the way to the target: close-partner steering.
+        assert_eq!(mode_of(&scene(&[(0.0, 0.0), (0.3, 0.0)], (2.0, 0.0)), Vec2::zeros()), LawMode::ClosePartner);
+        // Four wolves within 0.8 m of the target and a moving circle by wolf 0: early exit.
+        let mut w = scene(&[(-0.5, 0.0), (0.5, 0.3), (0.0, 0.6), (0.0, -0.6)], (0.0, 0.0));
+        w.obstacles = vec![Obstacle::circle(Vec2::new(-1.2, 0.0), 0.5, true)];
+        assert_eq!(mode_of(&w, Vec2::zeros()), LawMode::EarlyExit);
+    }
+
+    #[test]
+    fn noting_the_mode_changes_no_number() {
+        // The law's desired velocity equals avoidance's answer to the attraction and repulsion
+        // computed by hand, and the memory's other fields are what they were without a mode.
+        let mut w = scene(&[(0.0, 0.0), (0.3, 0.4)], (2.0, 0.0));
+        w.obstacles = vec![Obstacle::circle(Vec2::new(0.9, -0.1), 0.5, false)];
+        let mut mem = Memory::default();
+        let got = wolf_desired(0, &w.snap(), &mut mem, &mut w.row());
+        let s = &w.params.seed000;
+        let nu1 = attraction(0, &w.snap(), Vec2::zeros(), &mut w.row());
+        let nu = s.alpha * nu1 + s.beta * repulsion(0, &w.snap(), nu1, &mut w.row());
+        let want = avoidance::wolf(0, &w.snap(), nu.norm(), angle_of(nu), &mut Default::default(), &mut w.row());
+        assert_eq!((got.0.to_bits(), got.1.to_bits()), (want.0.to_bits(), want.1.to_bits()));
+        assert_eq!(Memory { mode: LawMode::None, ..mem }, Memory { last_attraction: nu1, ..Default::default() });
     }
 }

@@ -2,7 +2,7 @@
 //! (the law's module names it `Memory`), held by the world between steps and handed back to
 //! the law. Plain data, so that the world can hold it without knowing the laws.
 
-use super::{AgentState, Snapshot};
+use super::{AgentState, LawMode, Snapshot};
 use crate::config::WolfPolicy;
 use crate::math::Vec2;
 
@@ -22,12 +22,16 @@ pub struct Seed000Memory {
     /// The previous step's attraction vector ν₁ (zero before the first step).
     pub last_attraction: Vec2,
     pub danger: DangerMemory,
+    /// The branch that decided the last command (an output: the law never reads it).
+    pub mode: LawMode,
 }
 
 /// What the `escape` and `random` laws carry from one step to the next for one target.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct EscapeMemory {
     pub danger: DangerMemory,
+    /// The branch that decided the last command (an output: the law never reads it).
+    pub mode: LawMode,
 }
 
 /// What the bvc law carries from one step to the next for one wolf.
@@ -36,12 +40,16 @@ pub struct BvcMemory {
     pub sighting: Sighting,
     /// The hunting point assigned at the last assignment.
     pub point: Option<usize>,
+    /// The branch that decided the last command (an output: the law never reads it).
+    pub mode: LawMode,
 }
 
 /// What the formation law carries from one step to the next for one wolf.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FormationMemory {
     pub sighting: Sighting,
+    /// The branch that decided the last command (an output: the law never reads it).
+    pub mode: LawMode,
 }
 
 /// The pack's last sighting of a wolf's target, for the laws that hunt a position (bvc,
@@ -66,6 +74,12 @@ impl Sighting {
         }
         self.target
     }
+
+    /// Whether this step's [`Sighting::share`] found the target sensed (rather than
+    /// remembering an older sighting).
+    pub fn is_now(&self, snap: &Snapshot) -> bool {
+        self.target.is_some() && self.t == snap.t
+    }
 }
 
 /// What a wolf's law carries from one step to the next: the configured law's own memory, one
@@ -84,6 +98,15 @@ impl WolfMemory {
             WolfPolicy::Seed000 => Self::Seed000(Default::default()),
             WolfPolicy::Bvc => Self::Bvc(Default::default()),
             WolfPolicy::Formation => Self::Formation(Default::default()),
+        }
+    }
+
+    /// The branch of the law that decided its last command (none before its first).
+    pub fn mode(&self) -> LawMode {
+        match self {
+            Self::Seed000(m) => m.mode,
+            Self::Bvc(m) => m.mode,
+            Self::Formation(m) => m.mode,
         }
     }
 

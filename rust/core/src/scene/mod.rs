@@ -4,10 +4,12 @@
 //! module imports the other's types for this, and the laws never import the world.
 
 mod memory;
+mod mode;
 mod near;
 mod obstacles;
 
 pub use memory::{BvcMemory, DangerMemory, EscapeMemory, FormationMemory, Seed000Memory, Sighting, TargetMemory, WolfMemory};
+pub use mode::LawMode;
 pub use near::{cull_distance, near, Near, Neighbours};
 pub(crate) use obstacles::PolygonDraw;
 pub use obstacles::{Obstacle, ObstacleKind};

@@ -10,7 +10,7 @@ pub use layout::{Layout, LayoutObstacle};
 pub(crate) use step::Controls;
 // The types the world shares with the laws live below both (crate::scene); the world's
 // users find them here as well.
-pub use crate::scene::{cull_distance, near, AgentState, Near, Neighbours, Obstacle, ObstacleKind, TargetMemory, WolfMemory};
+pub use crate::scene::{cull_distance, near, AgentState, LawMode, Near, Neighbours, Obstacle, ObstacleKind, TargetMemory, WolfMemory};
 
 use std::sync::Arc;
 
@@ -107,6 +107,12 @@ pub struct World {
     pub target_memory: Vec<TargetMemory>,
     /// This step's interaction matrix, (N+M)² row-major; rows/columns: wolves, then targets.
     pub interaction: Vec<u8>,
+    /// The branch of each wolf's law that decided its command in the last step
+    /// ([`LawMode::None`] before the first step, and where given commands drove the wolves).
+    /// An output: nothing reads it back.
+    pub wolf_mode: Vec<LawMode>,
+    /// As `wolf_mode`, for the targets.
+    pub target_mode: Vec<LawMode>,
     /// Steps each agent (wolves, then targets) spent overlapping an obstacle or a wolf.
     pub collisions: Vec<u32>,
     pub outcome: Outcome,
@@ -204,6 +210,8 @@ impl World {
             wolf_memory: vec![WolfMemory::new(wolf_law); n],
             target_memory: vec![TargetMemory::default(); m],
             interaction: vec![0; (n + m) * (n + m)],
+            wolf_mode: vec![LawMode::None; n],
+            target_mode: vec![LawMode::None; m],
             collisions: vec![0; n + m],
             outcome: Outcome::Running,
             track_laws: false,
@@ -250,6 +258,8 @@ impl World {
             wolf_memory,
             target_memory,
             interaction,
+            wolf_mode,
+            target_mode,
             collisions,
             outcome,
             track_laws,
@@ -287,6 +297,8 @@ impl World {
         self.wolf_memory.clone_from(&wolf_memory);
         self.target_memory.clone_from(&target_memory);
         self.interaction.clone_from(&interaction);
+        self.wolf_mode.clone_from(&wolf_mode);
+        self.target_mode.clone_from(&target_mode);
         self.collisions.clone_from(&collisions);
         self.outcome = outcome;
         self.track_laws = track_laws;

@@ -8,7 +8,7 @@ use super::{AgentState, Outcome, World};
 use crate::config::{CaptureRule, Params, SideParams, WolfPolicy};
 use crate::geometry::{triangle_contains, triangles_overlap, BodyFrame};
 use crate::math::{wrap, Point2, Vec2};
-use crate::scene::{Command, Snapshot, TargetMemory, WolfMemory};
+use crate::scene::{Command, LawMode, Snapshot, TargetMemory, WolfMemory};
 
 /// What a step's controllers read (the snapshot) and write, borrowed apart from the world
 /// ([`World::controls`]).
@@ -22,6 +22,9 @@ pub(crate) struct Controls<'a> {
     pub interaction: &'a mut [u8],
     /// A row for a law that runs only to keep its memory (`track_laws`), whose marks are dropped.
     pub scratch_row: &'a mut [u8],
+    /// The branch of each agent's law that decided its command ([`World::wolf_mode`]).
+    pub wolf_mode: &'a mut [LawMode],
+    pub target_mode: &'a mut [LawMode],
     pub rng_policy: &'a mut ChaCha8Rng,
     pub track_laws: bool,
 }
@@ -73,6 +76,8 @@ impl World {
             target_cmds: &mut self.target_cmds,
             interaction: &mut self.interaction,
             scratch_row: &mut self.scratch_row,
+            wolf_mode: &mut self.wolf_mode,
+            target_mode: &mut self.target_mode,
             rng_policy: &mut self.rng_policy,
             track_laws: self.track_laws,
         }
