@@ -43,6 +43,10 @@ def test_two_targets_report_how_far_the_pack_got():
     assert row["any_capture_rate"] == sum(k > 0 for k in taken) / 24
     assert row["mean_targets_captured"] == pytest.approx(sum(taken) / 24)
     assert row["any_capture_rate"] > row["capture_rate"]  # some episodes took one target only
+    card = scorecard.scorecard("bvc", "wolves", tasks=["open-v1", "two-targets-v1"], episodes=24, seed=40)
+    text = scorecard.markdown(card)
+    assert f"`two-targets-v1` (2 targets): at least one taken in {100 * row['any_capture_rate']:.1f} % of episodes" in text
+    assert "`open-v1` (" not in text  # one target: a capture is the whole story
 
 
 def test_targets_are_scored_on_survival():

@@ -98,6 +98,7 @@ def score_task(
     hits = round(row[key] * row["episodes"])
     row["score"] = row[key]
     row["score_ci95"] = list(wilson_interval(hits, row["episodes"]))
+    row["target_count"] = params["world"]["targets"]
     return row
 
 
@@ -335,6 +336,7 @@ def markdown(card: dict) -> str:
         collisions = row["collision_rate"] if side == "wolves" else row["target_collision_rate"]
         lines.append(f"| `{task}` | **{100 * row['score']:.1f} %** ({100 * lo:.1f}–{100 * hi:.1f}) | {100 * collisions:.1f} % | {100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
     lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
+    lines += _partial_captures_lines(card) if side == "wolves" else []
     if card.get("exploitability"):
         ex = card["exploitability"]
         what = "survival of escapers" if side == "wolves" else "capture rate of packs"
@@ -345,6 +347,19 @@ def markdown(card: dict) -> str:
             "",
         ]
     return "\n".join(lines)
+
+
+def _partial_captures_lines(card: dict) -> list[str]:
+    """With several targets a capture counts only when every target is taken; how far the pack
+    got beside it (at least one target, and how many on average), for every such task."""
+    lines = []
+    for task, row in card["tasks"].items():
+        if row.get("target_count", 1) > 1 and "any_capture_rate" in row:
+            lines.append(
+                f"`{task}` ({row['target_count']} targets): at least one taken in {100 * row['any_capture_rate']:.1f} % of episodes, "
+                f"{row['mean_targets_captured']:.2f} of {row['target_count']} on average."
+            )
+    return [*lines, ""] if lines else []
 
 
 def _overrides_lines(overrides: Mapping[str, Any]) -> list[str]:
