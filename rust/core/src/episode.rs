@@ -1,5 +1,6 @@
-//! Whole episodes: run a world to its end, record the logs of SPEC §8, and run many episodes
-//! in parallel with results independent of the thread count (episode k uses seed `seed + k`).
+//! Whole episodes: run a world to its end, record what docs/world-and-laws.md §1.7 lists per
+//! episode and per step, and run many episodes in parallel with results independent of the
+//! thread count (episode k uses seed `seed + k`).
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -75,7 +76,7 @@ impl Trajectory {
     }
 }
 
-/// What one episode came to (SPEC §8).
+/// What one episode came to (docs/world-and-laws.md §1.7).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EpisodeResult {
     pub seed: u64,
@@ -86,8 +87,8 @@ pub struct EpisodeResult {
     /// Per target: the step its hunt ended (captured, or cornered where `capture.cornered`
     /// counts it), `None` if it never ended.
     pub target_capture_steps: Vec<Option<u32>>,
-    /// The first step at which any target was cornered (SPEC §6), whether or not that ended
-    /// the episode; `None` if no target ever was.
+    /// The first step at which any target was cornered (docs/world-and-laws.md §1.7), whether or
+    /// not that ended the episode; `None` if no target ever was.
     pub cornered_step: Option<u32>,
     /// Per agent (wolves, then targets), J.
     pub energy: Vec<f64>,

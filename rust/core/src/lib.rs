@@ -1,7 +1,7 @@
 //! wolfpack-core: a 2-D wolf-pack pursuit–evasion world and its analytic laws, in pure Rust.
 //!
-//! The layout follows docs/world-and-laws.md: [`world`] (§1), [`policies`] (§2–§5),
-//! [`episode`] (§8 outcomes and logs). Python bindings live in a separate crate; nothing here
+//! The layout follows docs/world-and-laws.md: [`world`] (§1), [`policies`] (§2–§7),
+//! [`episode`] (§1.7, outcomes and logs). Python bindings live in a separate crate; nothing here
 //! knows of Python.
 
 pub mod batch;

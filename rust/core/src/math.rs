@@ -81,7 +81,7 @@ pub fn ln(x: f64) -> f64 {
     libm::log(x)
 }
 
-/// Maps an angle into [0, 2π) (SPEC's `wrap`).
+/// Maps an angle into [0, 2π) (the `wrap` of docs/world-and-laws.md, Conventions).
 #[inline]
 pub fn wrap(a: f64) -> f64 {
     // Fast paths for the common case of an angle within one turn of [0, 2π). Both are exact

@@ -1,5 +1,5 @@
-//! One step of a world as a pipeline of stages (SPEC §1.5): the world's own stages
-//! ([`World::begin_step`]: obstacles, near lists, sensing; [`World::finish_step`]: the
+//! One step of a world as a pipeline of stages (docs/world-and-laws.md §1.6): the world's own
+//! stages ([`World::begin_step`]: obstacles, near lists, sensing; [`World::finish_step`]: the
 //! feasibility filter, the judge) around the controllers — the scripted laws of
 //! `crate::policies`, or commands given by a learner. The world never calls the laws itself, and
 //! the laws never see the world, only its [`Snapshot`]: this module is the one place that knows

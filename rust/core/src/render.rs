@@ -381,8 +381,8 @@ impl Canvas<'_> {
         self.stroke(pb, c, alpha, width);
     }
 
-    /// SPEC §1.2's isosceles body scaled to height = base = `h`: apex ahead, base through the
-    /// pose point.
+    /// The isosceles body of docs/world-and-laws.md §1.2 scaled to height = base = `h`: apex ahead,
+    /// base through the pose point.
     fn triangle(&mut self, [x, y, th]: [f64; 3], h: f64, c: Rgb, hollow: bool) {
         let (s, co) = sin_cos(th);
         let apex = [x + h * co, y + h * s];

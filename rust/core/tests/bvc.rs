@@ -1,5 +1,5 @@
 //! The bvc law in the world: with a still target in an obstacle-free arena the wolves settle on
-//! distinct hunting points (SPEC §6; issue: within 0.05 m).
+//! distinct hunting points (docs/world-and-laws.md §6; issue: within 0.05 m).
 
 use std::sync::Arc;
 

@@ -1,5 +1,5 @@
 //! The formation law in the world: with a still target in an obstacle-free arena the
-//! formation converges to the ring of slots around it (SPEC §7).
+//! formation converges to the ring of slots around it (docs/world-and-laws.md §7.1).
 
 use std::sync::Arc;
 

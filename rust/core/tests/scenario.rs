@@ -2,16 +2,16 @@
 //! wolves vs. the escape target, `Params::default()`, seed 0, 200 episodes.
 //!
 //! Run in release: `cargo test --release -p wolfpack-core --test scenario -- --nocapture`.
-//! Reference implementation: 96% captured, 4% wolf collisions, median capture at step 166
-//! (≈ 97% captured in its published figures). The acceptance bar is ≥ 97% captured, ≤ 1%
-//! collisions, median ≤ 170. Measured here (defaults: the target's wall κ 1.6 / 1.3 as the
-//! reference, SPEC §4): 98.0% / 0.0% / 160 on these 200 episodes, 98.1% / 0.1% / 160 on 1000.
-//! With the source document's κ 1.2 for the target's walls: 94.0% / 0.0% / 179 and
+//! Reference implementation: 96% captured, 4% wolf collisions, median capture at step 166 (≈ 97%
+//! captured in its published figures). The acceptance bar is ≥ 97% captured, ≤ 1% collisions,
+//! median ≤ 170. Measured here (defaults: the target's wall κ 1.6 / 1.3 as the reference,
+//! docs/world-and-laws.md §4.2): 98.0% / 0.0% / 160 on these 200 episodes, 98.1% / 0.1% / 160 on
+//! 1000. With the source document's κ 1.2 for the target's walls: 94.0% / 0.0% / 179 and
 //! 95.4% / 0.2% / 186 (docs/scenario.md).
 //!
 //! The `#[ignore]`d tests are diagnostics (run with `-- --ignored --nocapture`): `sweep` (a
 //! larger sample, `N` episodes), `failures` (what ended each failed episode), `trace` (which
-//! SPEC §4 rule decided each wolf's heading, `SEED`, `FROM`, `TO`).
+//! rule of §4.4 decided each wolf's heading, `SEED`, `FROM`, `TO`).
 
 use wolfpack_core::episode::run_episodes;
 use wolfpack_core::world::Outcome;
@@ -45,8 +45,8 @@ fn documented_scenario_captures_reliably() {
     assert_eq!(count(Outcome::Cornered), 0, "capture.cornered is off by default");
 }
 
-/// SPEC §6: with `capture.cornered` a cornered target is a success of its own, so bvc's
-/// success rate (captured + cornered) is at least its capture rate without it, on the same
+/// docs/world-and-laws.md §1.7: with `capture.cornered` a cornered target is a success of its own,
+/// so bvc's success rate (captured + cornered) is at least its capture rate without it, on the same
 /// episodes; without it, cornering is only counted.
 #[test]
 fn cornered_targets_count_as_successes_only_when_asked() {
@@ -141,7 +141,7 @@ fn failures() {
     println!("timeouts by lost wolves {lost_hist:?}, by wolves within 0.8 {close_hist:?}");
 }
 
-/// Per-step decisions of every wolf (which SPEC §4 rule decided), for one seed:
+/// Per-step decisions of every wolf (which rule of §4.4 decided), for one seed:
 /// `SEED=1 FROM=80 TO=110 cargo test --release -p wolfpack-core --test scenario trace -- --ignored --nocapture`.
 #[test]
 #[ignore]

@@ -1,5 +1,5 @@
-//! The world of SPEC §1 without the scripted laws: spawning, layouts, kinematics, the
-//! feasibility filter, energy, collisions, capture rules and the clock. Commands are given
+//! The world of docs/world-and-laws.md §1 without the scripted laws: spawning, layouts, kinematics,
+//! the feasibility filter, energy, collisions, capture rules and the clock. Commands are given
 //! explicitly (`step_with`), so these tests pin the world alone.
 
 use std::sync::Arc;

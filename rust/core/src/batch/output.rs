@@ -92,7 +92,8 @@ macro_rules! for_each_output {
         /// [E, M]: step at which each target was captured (or, with `capture.cornered`,
         /// cornered), −1 if not.
         capture_step: i64,
-        /// [E, M]: the first step at which each target was cornered (SPEC §6), −1 if never.
+        /// [E, M]: the first step at which each target was cornered (docs/world-and-laws.md §1.7),
+        /// −1 if never.
         cornered_step: i64,
         /// [E, N+M]: accumulated energy (J).
         energy: f64,

@@ -1,12 +1,13 @@
-//! The scripted laws' parameter sections of [`Params`](super::Params): seed000 (SPEC §3), the
-//! heading-based avoidance every scripted agent uses (§4), the `escape` target (§5), bvc (§6)
-//! and formation (§7). Each default is the documented value (docs/world-and-laws.md).
+//! The scripted laws' parameter sections of [`Params`](super::Params), numbered as in
+//! docs/world-and-laws.md: seed000 (§3), the heading-based avoidance every scripted agent uses
+//! (§4), the `escape` target (§5), bvc (§6) and formation (§7). Each default is the documented
+//! value.
 
 use serde::{Deserialize, Serialize};
 
 use crate::math::PI;
 
-/// The seed000 hunting law (SPEC §3): ν = α ν₁ + β ν₂.
+/// The seed000 hunting law (docs/world-and-laws.md §3): ν = α ν₁ + β ν₂.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Seed000Params {
@@ -29,7 +30,7 @@ pub struct Seed000Params {
     pub partner_danger: f64,
 }
 
-/// The bvc hunting law (SPEC §6): buffered Voronoi cells + Hungarian assignment.
+/// The bvc hunting law (docs/world-and-laws.md §6): buffered Voronoi cells + Hungarian assignment.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BvcParams {
@@ -53,7 +54,8 @@ impl Default for BvcParams {
     }
 }
 
-/// The formation law (SPEC §7): obstacle graph, virtual leader, potential-field formation.
+/// The formation law (docs/world-and-laws.md §7): obstacle graph, virtual leader, potential-field
+/// formation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FormationParams {
@@ -129,7 +131,7 @@ impl Default for Seed000Params {
     }
 }
 
-/// κ widening factors of one row of SPEC §4's table.
+/// κ widening factors of one row of the table in docs/world-and-laws.md §4.2.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct KappaRow {
@@ -139,7 +141,7 @@ pub struct KappaRow {
     pub moving_polygon: f64,
 }
 
-/// Heading-based obstacle avoidance (SPEC §4).
+/// Heading-based obstacle avoidance (docs/world-and-laws.md §4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AvoidanceParams {
@@ -156,26 +158,28 @@ pub struct AvoidanceParams {
     /// Early exit: a wolf within this distance of its target skips avoidance when enough
     /// wolves (`capture.count`) are that close, or when its only item is a wall.
     pub early_exit_distance: f64,
-    /// Whether a wall closer than `danger_distance` triggers an emergency. SPEC §4 excepts only
-    /// static circles; this project exempts walls too by default (`false`): a wall cannot end an
-    /// episode (the feasibility filter keeps every pose strictly inside), while the emergency
-    /// exists to avoid collisions. Measured on the documented scenario (200 episodes, seed 0,
-    /// captured / wolf collisions / median capture): `true` 71.0% / 5.5% / 200, `false`
-    /// 93.0% / 1.5% / 178.5 (with `target_edge_from_desired`); walls then wreck hunts along the
-    /// border — the wall-only early exit lets a wolf close in, and the emergency turns it away
-    /// as soon as the exit lapses. The reference implementation reached 96% / 4% / 166.
+    /// Whether a wall closer than `danger_distance` triggers an emergency (docs/world-and-laws.md
+    /// §4.5). The literal reading excepts only static circles; this project exempts walls too by
+    /// default (`false`): a wall cannot end an episode (the feasibility filter keeps every pose
+    /// strictly inside), while the emergency exists to avoid collisions. Measured on the
+    /// documented scenario (200 episodes, seed 0, captured / wolf collisions / median capture):
+    /// `true` 71.0% / 5.5% / 200, `false` 93.0% / 1.5% / 178.5 (with `target_edge_from_desired`);
+    /// walls then wreck hunts along the border — the wall-only early exit lets a wolf close in,
+    /// and the emergency turns it away as soon as the exit lapses. The reference implementation
+    /// reached 96% / 4% / 166.
     pub wall_emergency: bool,
-    /// Target variant (SPEC §4): when the heading θ lies in a danger interval, the new θ_d is
-    /// the edge nearer to the *desired* direction θ_d (`true`, eq. 13 of the source document)
-    /// or nearer to θ (`false`, a literal reading of SPEC's wording).
+    /// Target variant (docs/world-and-laws.md §4.8): when the heading θ lies in a danger interval,
+    /// the new θ_d is the edge nearer to the *desired* direction θ_d (`true`, eq. 13 of the source
+    /// document) or nearer to θ (`false`, a literal reading of the wording that describes the
+    /// variant).
     pub target_edge_from_desired: bool,
     pub wolf_single: KappaRow,
     pub wolf_multi: KappaRow,
-    /// The target rows are the source document's table except the wall column: the document
-    /// gives 1.2, the published reference used 1.6 (one item) / 1.3 (several), and the
-    /// documented scenario's published outcomes were produced with those, so they are the
-    /// default (SPEC §4's decision). The document's 1.2 lets the escape target hug the walls,
-    /// where four wolves cannot close around it (measured in docs/scenario.md).
+    /// The target rows are the source document's table except the wall column: the document gives
+    /// 1.2, the published reference used 1.6 (one item) / 1.3 (several), and the documented
+    /// scenario's published outcomes were produced with those, so they are the default (the
+    /// decision in docs/world-and-laws.md §4.2). The document's 1.2 lets the escape target hug the
+    /// walls, where four wolves cannot close around it (measured in docs/scenario.md).
     pub target_single: KappaRow,
     pub target_multi: KappaRow,
 }
@@ -193,15 +197,15 @@ impl Default for AvoidanceParams {
             target_edge_from_desired: true,
             wolf_single: KappaRow { wall: 1.6, circle: 2.4, static_polygon: 2.4, moving_polygon: 3.2 },
             wolf_multi: KappaRow { wall: 1.3, circle: 1.8, static_polygon: 1.8, moving_polygon: 2.2 },
-            // The target's wall factor is the published reference's 1.6 / 1.3 (SPEC §4's
-            // decision), not the source document's 1.2: see `target_single`.
+            // The target's wall factor is the published reference's 1.6 / 1.3 (the decision of
+            // docs/world-and-laws.md §4.2), not the source document's 1.2: see `target_single`.
             target_single: KappaRow { wall: 1.6, circle: 2.0, static_polygon: 2.0, moving_polygon: 2.8 },
             target_multi: KappaRow { wall: 1.3, circle: 1.6, static_polygon: 1.6, moving_polygon: 2.0 },
         }
     }
 }
 
-/// The scripted `escape` target (SPEC §5) and the fatigue curve
+/// The scripted `escape` target (docs/world-and-laws.md §5.1) and the fatigue curve
 /// `v(t) = base · (2 − 1/(1 + exp(slope · (delay + t_seen − t))))`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -35,7 +35,7 @@ pub struct Params {
     pub rewards: RewardParams,
 }
 
-/// Arena, clock and agent counts (SPEC §1.1–§1.3).
+/// Arena, clock, agent counts and spawning (docs/world-and-laws.md §1.1–§1.4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct WorldParams {
@@ -51,7 +51,8 @@ pub struct WorldParams {
     pub targets: usize,
     /// INIT_D: clearance between spawned obstacles and agents / other obstacles (m).
     pub init_clearance: f64,
-    /// Halve infeasible wolf speeds / freeze infeasible targets (SPEC §1.5 step 3).
+    /// The feasibility filter (docs/world-and-laws.md §1.6 step 3): halve infeasible wolf speeds /
+    /// freeze infeasible targets.
     pub feasibility_filter: bool,
     /// With several targets, wolves re-pick their nearest target every this many steps.
     pub retarget_period: u32,
@@ -106,8 +107,8 @@ pub struct TargetSideParams {
     pub omega_max: f64,
     pub mass: f64,
     pub sense_radius: f64,
-    /// Fatigue as a world rule (SPEC §5): from its first sighting on, a target's speed is
-    /// capped by the fatigue curve whoever controls it.
+    /// Fatigue as a world rule (docs/world-and-laws.md §5.2): from its first sighting on, a
+    /// target's speed is capped by the fatigue curve whoever controls it.
     pub fatigue: bool,
 }
 
@@ -124,7 +125,7 @@ impl TargetSideParams {
     }
 }
 
-/// Body triangle, shared by wolves and targets (SPEC §1.2).
+/// Body triangle, shared by wolves and targets (docs/world-and-laws.md §1.2).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BodyParams {
@@ -154,7 +155,7 @@ pub struct AgentsParams {
     pub body: BodyParams,
 }
 
-/// Obstacle counts and their random shapes and motion (SPEC §1.3).
+/// Obstacle counts and their random shapes and motion (docs/world-and-laws.md §1.3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ObstacleParams {
@@ -206,15 +207,15 @@ pub enum CaptureRule {
     Count,
     /// As `count`, and the target inside the convex hull of those wolves.
     Encircle,
-    /// The source of the `bvc` law's stopping rule (SPEC §6): every wolf hunting the target is
-    /// within `arrive_tolerance` of its hunting point — N points evenly spaced on the
-    /// `bvc.radius` ring around the target, the first at angle 0, assigned to the wolves by
-    /// minimum total distance as `bvc` assigns them (re-solved on the positions after the
+    /// The source of the `bvc` law's stopping rule (docs/world-and-laws.md §1.7): every wolf
+    /// hunting the target is within `arrive_tolerance` of its hunting point — N points evenly
+    /// spaced on the `bvc.radius` ring around the target, the first at angle 0, assigned to the
+    /// wolves by minimum total distance as `bvc` assigns them (re-solved on the positions after the
     /// move). The same test for every law; `count` plays no part in it.
     HuntingPoints,
 }
 
-/// Success criteria (SPEC §1.5 step 4 and §6): world rules, the same for every law.
+/// Success criteria (docs/world-and-laws.md §1.7): world rules, the same for every law.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CaptureParams {
@@ -223,11 +224,11 @@ pub struct CaptureParams {
     /// Wolves needed within `distance`; `null` means ⌈0.8 N⌉ (4 for 5 wolves).
     pub count: Option<usize>,
     pub rule: CaptureRule,
-    /// Whether a *cornered* target ends as a success with its own outcome `cornered`. A target
-    /// is cornered when it lies within `distance` of at least one wall, at least 2 wolves are
-    /// within `distance` of it, and it lies inside the convex hull of those wolves together
-    /// with its closest points on every wall within `distance` (SPEC §6). Off (the default)
-    /// keeps the documented scenario's outcomes; every episode still records whether (and
+    /// Whether a *cornered* target ends as a success with its own outcome `cornered`. A target is
+    /// cornered when it lies within `distance` of at least one wall, at least 2 wolves are within
+    /// `distance` of it, and it lies inside the convex hull of those wolves together with its
+    /// closest points on every wall within `distance` (docs/world-and-laws.md §1.7). Off (the
+    /// default) keeps the documented scenario's outcomes; every episode still records whether (and
     /// when first) its target was cornered.
     pub cornered: bool,
     /// `rule: hunting_points`: how close (m) each wolf must be to its hunting point.
@@ -303,8 +304,9 @@ impl Default for PolicyParams {
 pub enum ActionMode {
     /// `v = (a₀ + 1)/2 · v_max`, `ω = a₁ · ω_max`.
     Unicycle,
-    /// `a` is a desired velocity in the agent frame (x ahead, y left) in units of v_max
-    /// (norm capped at 1); it goes through the saturator (SPEC §2) like an analytic law's.
+    /// `a` is a desired velocity in the agent frame (x ahead, y left) in units of v_max (norm
+    /// capped at 1); it goes through the saturator (docs/world-and-laws.md §2) like an analytic
+    /// law's.
     Velocity,
 }
 

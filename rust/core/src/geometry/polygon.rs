@@ -120,8 +120,9 @@ pub fn segment_disc_clip(a: Vec2, b: Vec2, c: Vec2, r: f64) -> Option<(Vec2, Vec
     (t0 <= t1).then(|| (a + d * t0, a + d * t1))
 }
 
-/// Angular extent of `polygon ∩ disc(p, range)` seen from `p` (SPEC §4 "polygon" item): the two
-/// tangent rays bound the directions in which a ray from p meets the polygon within `range`.
+/// Angular extent of `polygon ∩ disc(p, range)` seen from `p` (the polygon item of
+/// docs/world-and-laws.md §4.1): the two tangent rays bound the directions in which a ray from p
+/// meets the polygon within `range`.
 ///
 /// Returns `None` when the polygon is farther than `range`. The directions are measured as
 /// offsets from the direction ψ₀ of the closest boundary point (which is always inside the

@@ -1,6 +1,6 @@
-//! The ring of hunting points around a target and the wolves' assignment to them: the bvc law
-//! hunts with them (SPEC §6), and the world's `capture.rule: hunting_points` judges with the
-//! same points and the same assignment (SPEC §1.7).
+//! The ring of hunting points around a target and the wolves' assignment to them: the bvc law hunts
+//! with them (docs/world-and-laws.md §6), and the world's `capture.rule: hunting_points` judges
+//! with the same points and the same assignment (§1.7).
 
 use pathfinding::kuhn_munkres::kuhn_munkres_min;
 use pathfinding::matrix::Matrix;

@@ -3,9 +3,9 @@
 use super::polygon::polygon_contains;
 use crate::math::{cross, unit, Vec2};
 
-/// The body of an agent at pose (p, θ) (SPEC §1.2): the pose point is the base midpoint,
-/// the apex lies `height` ahead, the base corners `base/2` to either side.
-/// Returns `[apex, left corner, right corner]` (counter-clockwise).
+/// The body of an agent at pose (p, θ) (docs/world-and-laws.md §1.2): the pose point is the base
+/// midpoint, the apex lies `height` ahead, the base corners `base/2` to either side. Returns
+/// `[apex, left corner, right corner]` (counter-clockwise).
 #[inline]
 pub fn body_triangle(p: Vec2, theta: f64, base: f64, height: f64) -> [Vec2; 3] {
     BodyFrame::new(theta, base, height).at(p)
@@ -27,8 +27,8 @@ impl BodyFrame {
     pub fn new(theta: f64, base: f64, height: f64) -> Self {
         let fwd = unit(theta);
         // unit(θ + π/2) is fwd turned a quarter: (−sin θ, cos θ), exactly, with no second
-        // sin_cos (it differs from the rounded sin_cos(θ + π/2) in the last bit or so; SPEC's
-        // body is the exact one).
+        // sin_cos (it differs from the rounded sin_cos(θ + π/2) in the last bit or so; the
+        // documented body, §1.2, is the exact one).
         let side = Vec2::new(-fwd.y, fwd.x);
         Self { fwd, ahead: fwd * height, half_base: side * (0.5 * base) }
     }

@@ -183,7 +183,7 @@ impl Observer {
         self.sort_by_distance(me.pos, &w.wolves, Some(i));
         for &(_, j) in &self.by_distance {
             // Global communication includes whether the partner has a target in sight: a wolf
-            // that sees none follows the nearest partner that does (SPEC §3).
+            // that sees none follows the nearest partner that does (docs/world-and-laws.md §3.1).
             let partner = w.wolves[j].pos;
             let senses = w.targets.iter().any(|t| (t.pos - partner).norm() <= r);
             write_relative(&me, mine, &w.wolves[j], self.trig[j], scale, &mut out[k..k + 5], true);

@@ -1,4 +1,4 @@
-//! SPEC §4 — heading-based obstacle avoidance (source §1.5, eqs. 9–13).
+//! docs/world-and-laws.md §4 — heading-based obstacle avoidance (source §1.5, eqs. 9–13).
 //!
 //! An agent at p with a desired velocity (v_d, θ_d) looks at the *items* around it:
 //!
@@ -19,9 +19,9 @@
 //!    makes the agent flee straight away from it for `danger_steps` steps;
 //! 3. close partner (wolves): steer away from partners closer than `partner_danger` ahead;
 //! 4. normal mode (eqs. 11–13): θ_d inside an interval → nearer edge pushed out by
-//!    `edge_margin`; the target variant tests its current heading instead (SPEC §4 last bullet).
+//!    `edge_margin`; the target variant tests its current heading instead (§4.8).
 //!
-//! Choices where SPEC is silent or where this module reads it (each repeated where it is coded):
+//! Choices the sources leave open, settled in §4.3–§4.8 and §8 (each repeated where it is coded):
 //! - Emergency beats close-partner steering, which beats normal mode: an obstacle contact ends
 //!   the episode, so fleeing it comes first; a partner ahead is the next nearest hazard.
 //! - Early exits skip the whole of avoidance, a running emergency included (its clock still
@@ -34,13 +34,13 @@
 //!   walls can trigger emergencies, and whether the target variant's nearer edge is measured
 //!   from θ_d (eq. 13 of the source) or from the heading θ.
 //! - An emergency keeps steering for its whole duration even if its cause left the range
-//!   (SPEC: "while in danger it heads straight away").
+//!   (§4.5).
 //! - Intervals that touch are merged (a gap of zero width is no way through).
 //! - A merged interval covering the whole circle has no edge: normal mode keeps θ_d.
 //! - Ties for the "nearer edge" go to the lower (clockwise) edge.
-//! - "Ahead (within π/2 of θ_d)" means strictly less than π/2 between θ_d and the direction to
-//!   the partner; "that turn exceeds π/2" means more than π/2 between the new direction and
-//!   the current heading θ (the turn the saturator would have to make).
+//! - A partner is ahead when strictly less than π/2 lies between θ_d and the direction to it
+//!   (§4.6); a flight or steering direction more than π/2 from the current heading θ (the turn
+//!   the saturator would have to make) means v = 0 (§4.5, §4.6).
 //! - Coincident agents (zero distance) give no direction and are no partner item.
 //!
 //! No allocation: items and intervals live in fixed stack buffers of [`MAX_ITEMS`]; beyond it
@@ -112,7 +112,7 @@ impl Items {
         &self.buf
     }
 
-    /// Items in range, for the κ row (SPEC: "the item count includes partners").
+    /// Items in range, for the κ row (docs/world-and-laws.md §4.2: partners included in the count).
     pub fn count(&self) -> usize {
         self.seen
     }
@@ -327,7 +327,7 @@ pub fn dif(a: f64, b: f64) -> f64 {
 }
 
 /// Heads for `dir` at `v_max`, or stands (v = 0) if that is more than a quarter turn from the
-/// current heading `theta` (SPEC's "or at 0 if that turn exceeds π/2").
+/// current heading `theta` (docs/world-and-laws.md §4.5, §4.6).
 fn dash(dir: f64, theta: f64, v_max: f64) -> (f64, f64) {
     (if dif(dir, theta) > FRAC_PI_2 { 0.0 } else { v_max }, dir)
 }
@@ -348,8 +348,9 @@ pub fn tick_danger(danger: &mut DangerMemory, trigger: Option<f64>, steps: u32) 
     }
 }
 
-/// Early exits of SPEC §4 (wolves): within `early_exit_distance` of its target while at least
-/// `capture_count` wolves are (this one included), or when the only item is a wall.
+/// Early exits of docs/world-and-laws.md §4.4.1 (wolves): within `early_exit_distance` of its
+/// target while at least `capture_count` wolves are (this one included), or when the only item is a
+/// wall.
 fn early_exit(i: usize, snap: &Snapshot, items: &Items) -> bool {
     let p = snap.params;
     let r = p.avoidance.early_exit_distance;
@@ -361,10 +362,11 @@ fn early_exit(i: usize, snap: &Snapshot, items: &Items) -> bool {
     only_wall || snap.wolves.iter().filter(|w| (w.pos - target).norm() <= r).count() >= p.capture_count()
 }
 
-/// Close-partner steering (SPEC §4): the direction of Σ (p_i − p_k)/‖p_i − p_k‖² over the
-/// partners closer than `partner_danger` and ahead of θ_d (each marked in `row`). Note the
-/// true inverse-square vector, not the reference's element-wise reciprocal. `None` when no
-/// partner qualifies or the sum vanishes (symmetric partners: nothing to prefer).
+/// Close-partner steering (docs/world-and-laws.md §4.6): the direction of
+/// Σ (p_i − p_k)/‖p_i − p_k‖² over the partners closer than `partner_danger` and ahead of θ_d
+/// (each marked in `row`). Note the true inverse-square vector, not the reference's element-wise
+/// reciprocal. `None` when no partner qualifies or the sum vanishes (symmetric partners:
+/// nothing to prefer).
 fn close_partner(i: usize, snap: &Snapshot, theta_d: f64, row: &mut [u8]) -> Option<f64> {
     let p = snap.wolves[i].pos;
     let r2 = snap.params.seed000.partner_danger.powi(2);
@@ -381,8 +383,8 @@ fn close_partner(i: usize, snap: &Snapshot, theta_d: f64, row: &mut [u8]) -> Opt
     (sum != Vec2::zeros()).then(|| angle_of(sum))
 }
 
-/// Which rule of SPEC §4 decided an agent's heading (for tests, diagnostics and the law's
-/// [`LawMode`]).
+/// Which rule of docs/world-and-laws.md §4.4 decided an agent's heading (for tests, diagnostics and
+/// the law's [`LawMode`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
     /// Early exit: avoidance skipped.
@@ -413,8 +415,8 @@ impl Mode {
     }
 }
 
-/// Avoidance for wolf `i` (SPEC §4, wolf rows). Returns the new (v_d, θ_d) for the saturator and
-/// marks in `row` the partners whose positions it used.
+/// Avoidance for wolf `i` (docs/world-and-laws.md §4, wolf rows). Returns the new (v_d, θ_d) for
+/// the saturator and marks in `row` the partners whose positions it used.
 pub fn wolf(i: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut DangerMemory, row: &mut [u8]) -> (f64, f64) {
     let (v, th, _) = wolf_mode(i, snap, v_d, theta_d, danger, row);
     (v, th)
@@ -464,8 +466,8 @@ pub fn normal_mode(merged: &Merged, theta_d: f64, margin: f64) -> f64 {
     }
 }
 
-/// Avoidance for target `j` (SPEC §4, target rows and the target variant). Wolves are not
-/// obstacles for the target.
+/// Avoidance for target `j` (docs/world-and-laws.md §4.2 target rows, §4.8 target variant). Wolves
+/// are not obstacles for the target.
 pub fn target(j: usize, snap: &Snapshot, v_d: f64, theta_d: f64, danger: &mut DangerMemory) -> (f64, f64) {
     let (v, th, _) = target_mode(j, snap, v_d, theta_d, danger);
     (v, th)

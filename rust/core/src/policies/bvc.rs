@@ -1,5 +1,5 @@
-//! The `bvc` hunting law (SPEC §6; source `001_d2e86cb3825e307d.txt`): buffered Voronoi cells
-//! with a Hungarian assignment of hunting points.
+//! The `bvc` hunting law (docs/world-and-laws.md §6; source `001_d2e86cb3825e307d.txt`): buffered
+//! Voronoi cells with a Hungarian assignment of hunting points.
 //!
 //! - Hunting points ([`hunting_points`]): N points evenly spaced on the ring of radius r_h
 //!   around the wolf's target, the first at angle 0.
@@ -18,8 +18,8 @@
 //!   cell, which takes it away from the obstacle.
 //! - Goal ([`closest_point`]): the hunting point if the cell contains it, else the cell's
 //!   closest point to it, on an edge (projection parameter λ ∈ [0, 1]) or at a vertex.
-//! - Command: within `bvc.d_min` of an obstacle or of another wolf (a reading: SPEC names only
-//!   obstacles, but a straight run at another wolf is what the cell exists to prevent), head
+//! - Command: within `bvc.d_min` of an obstacle or of another wolf (a reading, §8: the source names
+//!   only obstacles, but a straight run at another wolf is what the cell exists to prevent), head
 //!   for the goal; otherwise straight for the hunting point. Speed v_max, capped so as not to
 //!   overshoot in one step (v ≤ distance / Ts). Then the saturator.
 //! - Sensing: a wolf knows its target's position when it or any other wolf senses it (global

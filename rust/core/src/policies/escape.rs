@@ -1,5 +1,5 @@
-//! SPEC §5 — the scripted target laws `escape` and `random` (`still` is v = ω = 0 and is
-//! handled by the world).
+//! docs/world-and-laws.md §5 — the scripted target laws `escape` and `random` (`still` is
+//! v = ω = 0 and is handled by the world).
 //!
 //! `escape`:
 //! - before the target has ever sensed a wolf: wander, v ~ U(0, wander_speed),
@@ -10,10 +10,10 @@
 //!   and v_d = the fatigue curve `escape.fatigue_speed(t_seen, t)`; if none is sensed now, keep
 //!   the heading and scale the current speed by the curve's ratio between t and t − 1;
 //!
-//! then avoidance (SPEC §4, target variant) and the saturator (SPEC §2). `random` is the
+//! then avoidance (§4.8, target variant) and the saturator (§2). `random` is the
 //! wander rule forever, then the same avoidance and saturator.
 //!
-//! Choices where SPEC is silent:
+//! Choices the sources leave open, as §5.1 settles them:
 //! - Random numbers are drawn in a fixed order, speed first, then turn, two per wander step,
 //!   as `u·wander_speed` and `(2u − 1)·wander_turn` with u ~ U[0, 1) — no range is ever
 //!   empty, so a zero `wander_speed` or `wander_turn` cannot panic.

@@ -1,5 +1,5 @@
-//! The `formation` law (SPEC §7; source `002_1b59bc6eab955b77.txt`): obstacle graph,
-//! visibility path for a virtual leader, potential-field formation.
+//! The `formation` law (docs/world-and-laws.md §7; source `002_1b59bc6eab955b77.txt`): obstacle
+//! graph, visibility path for a virtual leader, potential-field formation.
 //!
 //! Planning:
 //!
@@ -33,13 +33,13 @@
 //!   f_γ = −α [(q_i − q_slot) + γ (p_i − p_r)];
 //!   a_ij = 1 within the communication radius r, b_ik = 1 when obstacle k's surface is within
 //!   the detection radius r′ (s_ik: surface distance).
-//! - Potentials (the source shows them only as images; SPEC §7 asks for standard forms):
+//! - Potentials (the source shows them only as images; §7.2 takes standard smooth forms):
 //!   spacing φ1(z) = k_α (1 − d/z), the gradient of ½ k_α (z − d)² along q_i − q_j, so the
 //!   spacing potential has its minimum at the spacing d; obstacle φ2(s) = −k_β (1/s − 1/r′) / s²
 //!   (the classic repulsive potential ½ k_β (1/s − 1/r′)², zero at r′); bump h(x) = 1 on
 //!   [0, δ), ½ (1 + cos(π (x − δ)/(1 − δ))) on [δ, 1], 0 beyond (Olfati-Saber 2006).
 //! - Double integrator: the desired velocity is p_i + u_i Ts (norm capped at v_max), then the
-//!   saturator (SPEC §2).
+//!   saturator (§2).
 
 use pathfinding::directed::dijkstra::dijkstra;
 use pathfinding::undirected::connected_components::connected_components;

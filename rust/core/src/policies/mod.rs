@@ -1,7 +1,7 @@
-//! The analytic laws. Each reads the same [`Snapshot`] of the world (SPEC §1.5 step 2) and
-//! returns a [`Command`] (v, ω) that has been through the saturator (SPEC §2).
+//! The analytic laws. Each reads the same [`Snapshot`] of the world (docs/world-and-laws.md §1.6
+//! step 2) and returns a [`Command`] (v, ω) that has been through the saturator (§2).
 //!
-//! | module | SPEC | who |
+//! | module | docs/world-and-laws.md | who |
 //! |---|---|---|
 //! | [`saturator`] | §2 | everyone: desired velocity → (v, ω) |
 //! | [`seed000`] | §3 | wolves: attraction + tangential repulsion |

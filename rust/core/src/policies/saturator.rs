@@ -1,4 +1,5 @@
-//! SPEC §2 — from a desired velocity (speed v_d, direction θ_d) to a command (v, ω).
+//! docs/world-and-laws.md §2 — from a desired velocity (speed v_d, direction θ_d) to a command
+//! (v, ω).
 //!
 //! With heading θ, `k = ω_max Ts` (the largest turn one step can make) and
 //! `e = wrap(θ − θ_d)` (how far θ_d lies clockwise of θ):
@@ -17,7 +18,7 @@
 use super::Command;
 use crate::math::{wrap, wrap_pi, PI, TAU};
 
-/// The saturator of SPEC §2. Pure; every analytic law ends with it.
+/// The saturator of docs/world-and-laws.md §2. Pure; every analytic law ends with it.
 ///
 /// Non-finite or negative `v_d` gives v = 0 (no reverse motion); the result never panics.
 pub fn saturate(v_d: f64, theta_d: f64, theta: f64, v_max: f64, omega_max: f64, ts: f64) -> Command {
@@ -47,7 +48,7 @@ pub fn unwrap_omega(omega: f64, ts: f64) -> f64 {
 }
 
 /// The heading the agent would have after one step of `saturate`'s turn (the target variant of
-/// SPEC §4 simulates it).
+/// docs/world-and-laws.md §4.8 simulates it).
 #[inline]
 pub fn next_heading(theta: f64, cmd: Command, ts: f64) -> f64 {
     wrap(theta + cmd.omega * ts)

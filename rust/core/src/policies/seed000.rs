@@ -1,4 +1,4 @@
-//! SPEC §3 — the `seed000` hunting law (source §1.4, eqs. 4–8).
+//! docs/world-and-laws.md §3 — the `seed000` hunting law (source §1.4, eqs. 4–8).
 //!
 //! ν_i = α·ν_i1 + β·ν_i2:
 //!
@@ -10,10 +10,10 @@
 //!   x' axis only, `(L·u) u` with `L = Σ (p_i − p_k)/d_ik^τ3` and u the attraction direction
 //!   rotated by −π/2 (u = (0, −1) when the attraction is zero);
 //!
-//! then obstacle avoidance (SPEC §4, [`avoidance::wolf`]) and the saturator (SPEC §2).
+//! then obstacle avoidance (§4, [`avoidance::wolf`]) and the saturator (§2).
 //!
-//! Choices where SPEC is silent:
-//! - "at speed 1.5" of the fallback is the magnitude of ν_i1 itself (before α), so the
+//! Choices the source leaves open, as §3 and §8 settle them:
+//! - The fallback's speed 1.5 (`lost_speed`) is the magnitude of ν_i1 itself (before α), so the
 //!   fallback keeps the same α/β balance as the other branches; the saturator caps the speed.
 //! - Coincident agents (zero distance) contribute a zero vector instead of 0·∞ = NaN.
 //! - A zero ν (nothing to do) keeps the current heading as θ_d, with v_d = 0.
@@ -54,7 +54,7 @@ pub fn wolf_desired(i: usize, snap: &Snapshot, mem: &mut Memory, row: &mut [u8])
     (v, th)
 }
 
-/// Attraction ν_i1 (SPEC §3, source eq. 5). `last` is the previous step's ν_i1.
+/// Attraction ν_i1 (docs/world-and-laws.md §3.1, source eq. 5). `last` is the previous step's ν_i1.
 pub fn attraction(i: usize, snap: &Snapshot, last: Vec2, row: &mut [u8]) -> Vec2 {
     attraction_case(i, snap, last, row).0
 }
@@ -109,9 +109,9 @@ pub fn x_axis(nu1: Vec2) -> Vec2 {
     }
 }
 
-/// Repulsion ν_i2 (SPEC §3, source eqs. 6–8, without β): p, q the nearest and second-nearest
-/// other wolves; each within r_w adds (p_i − p_k)/d_ik^τ3 to L (and is marked in `row`);
-/// ν_i2 = (L·u) u.
+/// Repulsion ν_i2 (docs/world-and-laws.md §3.2, source eqs. 6–8, without β): p, q the nearest and
+/// second-nearest other wolves; each within r_w adds (p_i − p_k)/d_ik^τ3 to L (and is marked in
+/// `row`); ν_i2 = (L·u) u.
 pub fn repulsion(i: usize, snap: &Snapshot, nu1: Vec2, row: &mut [u8]) -> Vec2 {
     let s = &snap.params.seed000;
     let rw = snap.params.agents.wolf.sense_radius;

@@ -6,8 +6,8 @@ use super::{AgentState, LawMode, Snapshot};
 use crate::config::WolfPolicy;
 use crate::math::Vec2;
 
-/// An emergency (SPEC §4) lasts several steps: what the avoidance of a law remembers between
-/// them (part of the memories of seed000, escape and random).
+/// An emergency (docs/world-and-laws.md §4.5) lasts several steps: what the avoidance of a law
+/// remembers between them (part of the memories of seed000, escape and random).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct DangerMemory {
     /// Steps of the current emergency still to run, this one included (0: none).
@@ -63,9 +63,9 @@ pub struct Sighting {
 }
 
 impl Sighting {
-    /// Global communication (SPEC §1.4): when any wolf hunting wolf i's target senses it, the
-    /// whole pack learns the target's state and the step; returns the target as last sensed
-    /// (None before any sighting).
+    /// Global communication (docs/world-and-laws.md §1.5): when any wolf hunting wolf i's target
+    /// senses it, the whole pack learns the target's state and the step; returns the target as last
+    /// sensed (None before any sighting).
     pub fn share(&mut self, i: usize, snap: &Snapshot) -> Option<AgentState> {
         let target = snap.wolf_target[i];
         if snap.wolf_senses.iter().zip(snap.wolf_target).any(|(&s, &t)| s && t == target) {

@@ -27,7 +27,7 @@ pub struct AgentState {
     pub v: f64,
     /// Turn rate executed in the last step (rad/s).
     pub omega: f64,
-    /// Σ ½ m v² over the steps so far (J; per step, no Ts factor — SPEC §1.2).
+    /// Σ ½ m v² over the steps so far (J; per step, no Ts factor — docs/world-and-laws.md §1.2).
     pub energy: f64,
 }
 

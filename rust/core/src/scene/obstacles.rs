@@ -1,4 +1,5 @@
-//! Obstacles: circles and irregular star-shaped polygons, static or moving (SPEC §1.3).
+//! Obstacles (docs/world-and-laws.md §1.3): circles and irregular star-shaped polygons, static or
+//! moving.
 
 use rand::Rng;
 
@@ -57,7 +58,7 @@ impl Obstacle {
         Self { kind, center, radius, angle: 0.0, local, vertices, placed: true }
     }
 
-    /// The random irregular polygon of SPEC §1.3: size R, n vertices whose polar angles cover
+    /// The random irregular polygon of §1.3: size R, n vertices whose polar angles cover
     /// every quadrant, radii `sqrt(U(inner, 1))·R`, joined in angular order (star-shaped).
     pub fn random_polygon<R: Rng>(rng: &mut R, center: Vec2, moving: bool, p: &ObstacleParams) -> Self {
         let mut draw = PolygonDraw::default();
@@ -96,7 +97,7 @@ impl Obstacle {
         }
     }
 
-    /// One step of obstacle motion (SPEC §1.3): polygons rotate by U(−rot, rot); moving ones
+    /// One step of obstacle motion (§1.3): polygons rotate by U(−rot, rot); moving ones
     /// translate by v·Ts with v ~ N(0, σ²) per axis, reflected so they stay inside the border.
     /// Draws are made in a fixed order for every obstacle so the stream is layout-independent.
     pub fn advance<R: Rng>(&mut self, rng: &mut R, p: &ObstacleParams, ts: f64, border: &[f64; 4]) {
@@ -161,9 +162,9 @@ impl Obstacle {
         }
     }
 
-    /// The avoidance item this obstacle makes for an agent at `p` (SPEC §4), if it is within
-    /// `range` (surface distance). Circles: ψ towards the centre, Δ = asin(R/(d+R)) (the
-    /// exact tangent cone); polygons: the tangent rays of the part within `range`.
+    /// The avoidance item this obstacle makes for an agent at `p` (docs/world-and-laws.md §4.1), if
+    /// it is within `range` (surface distance). Circles: ψ towards the centre, Δ = asin(R/(d+R))
+    /// (the exact tangent cone); polygons: the tangent rays of the part within `range`.
     pub fn extent(&self, p: Vec2, range: f64) -> Option<Extent> {
         // Cull by bounding radius before any exact work.
         let dc = (p - self.center).norm();

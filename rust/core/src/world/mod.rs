@@ -1,4 +1,4 @@
-//! The world of SPEC §1: arena, agents, obstacles, sensing, one synchronous step.
+//! The world of docs/world-and-laws.md §1: arena, agents, obstacles, sensing, one synchronous step.
 
 mod expert;
 mod layout;
@@ -23,7 +23,7 @@ use crate::geometry::{body_triangle, BodyFrame};
 use crate::math::{sin_cos, Vec2};
 use crate::scene::Command;
 
-/// How an episode ended (SPEC §1.5 step 4).
+/// How an episode ended (docs/world-and-laws.md §1.7).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Outcome {
     Running,
@@ -34,7 +34,7 @@ pub enum Outcome {
     /// `world.max_steps` reached.
     Timeout,
     /// Every target captured or cornered, at least one of them cornered (only with
-    /// `capture.cornered`; SPEC §6).
+    /// `capture.cornered`; docs/world-and-laws.md §1.7).
     Cornered,
 }
 
@@ -98,8 +98,8 @@ pub struct World {
     pub target_captured: Vec<bool>,
     /// The step each target's hunt ended (capture, or cornering where it counts).
     pub target_capture_step: Vec<Option<u32>>,
-    /// The first step at which each target was cornered (SPEC §6), whether or not
-    /// `capture.cornered` makes that a success.
+    /// The first step at which each target was cornered (docs/world-and-laws.md §1.7), whether or
+    /// not `capture.cornered` makes that a success.
     pub target_cornered_step: Vec<Option<u32>>,
     /// Whether each ended target's hunt ended by cornering rather than capture.
     pub target_ended_cornered: Vec<bool>,
@@ -149,7 +149,7 @@ pub struct World {
 }
 
 impl World {
-    /// A world spawned at random from `seed` (SPEC §1.3 spawn rules).
+    /// A world spawned at random from `seed` (docs/world-and-laws.md §1.4).
     pub fn new(params: Arc<Params>, seed: u64) -> Result<Self> {
         Self::new_episode(params, seed, 0)
     }
@@ -422,7 +422,8 @@ impl World {
         (self.outcome == Outcome::Captured).then(|| self.target_capture_step.iter().flatten().copied().max()).flatten()
     }
 
-    /// The first step at which any target was cornered (SPEC §6), if one ever was.
+    /// The first step at which any target was cornered (docs/world-and-laws.md §1.7), if one ever
+    /// was.
     pub fn cornered_step(&self) -> Option<u32> {
         self.target_cornered_step.iter().flatten().copied().min()
     }

@@ -1,4 +1,5 @@
-//! Initial states: random spawning (SPEC §1.3) and explicit layouts, both validated.
+//! Initial states: random spawning (docs/world-and-laws.md §1.4) and explicit layouts, both
+//! validated.
 //!
 //! Random spawning is rejection sampling with a fixed budget (`world.spawn_attempts` tries per
 //! item, `world.spawn_restarts` whole-layout restarts), all draws from the world's spawn

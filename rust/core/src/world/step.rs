@@ -1,5 +1,5 @@
-//! One synchronous step (SPEC §1.5): obstacles move; every controller reads the same snapshot;
-//! agents move through the feasibility filter; outcomes; the clock advances.
+//! One synchronous step (docs/world-and-laws.md §1.6): obstacles move; every controller reads the
+//! same snapshot; agents move through the feasibility filter; outcomes; the clock advances.
 
 use parry2d_f64::transformation::convex_hull;
 use rand_chacha::ChaCha8Rng;
@@ -29,12 +29,12 @@ pub(crate) struct Controls<'a> {
     pub track_laws: bool,
 }
 
-/// A speed reached by halving below this stops the wolf: it only turns (SPEC §1.5). A
+/// A speed reached by halving below this stops the wolf: it only turns (§1.6). A
 /// commanded speed below it is made as commanded when feasible.
 const MIN_HALVED_SPEED: f64 = 0.01;
 
 impl World {
-    /// The first stage of a step (SPEC §1.5 steps 1–2, up to the controllers): obstacles move,
+    /// The first stage of a step (§1.6 steps 1–2, up to the controllers): obstacles move,
     /// the step's near lists, then target assignment and sensing. False, and nothing moves,
     /// when the world is done. The controllers come next ([`World::controls`]), then
     /// [`World::finish_step`]; `crate::pipeline` runs the three.
@@ -83,7 +83,7 @@ impl World {
         }
     }
 
-    /// The last stage of a step (SPEC §1.5 steps 3–4), once the controllers have written this
+    /// The last stage of a step (§1.6 steps 3–4), once the controllers have written this
     /// step's commands: moves through the feasibility filter, outcomes, the clock.
     /// `wolves_given` / `targets_given` say which sides were driven by given commands (for the
     /// fault message of a non-finite one).
@@ -219,8 +219,8 @@ impl World {
             let dir = self.wolf_bodies.dir(i);
             let mut frame = BodyFrame::new(theta, b.base, b.height);
             if p.world.feasibility_filter {
-                // SPEC §1.5: a move feasible as commanded is made as commanded, however small
-                // its v; only a speed reached by halving is floored at 0.01.
+                // docs/world-and-laws.md §1.6: a move feasible as commanded is made as commanded,
+                // however small its v; only a speed reached by halving is floored at 0.01.
                 loop {
                     let pos = w.pos + dir * (v * ts);
                     if self.wolf_pose_feasible(i, pos, &frame) {
@@ -229,9 +229,9 @@ impl World {
                     v *= 0.5;
                     if v < MIN_HALVED_SPEED {
                         v = 0.0;
-                        // SPEC: below 0.01 it only turns. A turn on the spot that would itself
-                        // touch a wolf or an obstacle is not made either (the reference let it
-                        // happen; every wolf–wolf collision measured here came from one).
+                        // §1.6: below 0.01 it stands and only turns. A turn on the spot that would
+                        // itself touch a wolf or an obstacle is not made either (the reference let
+                        // it happen; every wolf–wolf collision measured here came from one).
                         if omega != 0.0 && !self.wolf_pose_feasible(i, w.pos, &frame) {
                             let unturned = BodyFrame::new(w.theta, b.base, b.height);
                             if self.wolf_pose_feasible(i, w.pos, &unturned) {
@@ -304,7 +304,7 @@ impl World {
                 let inside = pos.x > x0 && pos.x < x1 && pos.y > y0 && pos.y < y1;
                 let body = frame.at(pos);
                 if !inside || super::near(&self.obstacles, Some(&self.near), n + j).any(|o| o.overlaps_triangle(&body)) {
-                    v = 0.0; // SPEC: a target that cannot move feasibly only turns.
+                    v = 0.0; // §1.6: a target whose move is infeasible only turns.
                 }
             }
             let mut pos = t.pos + dir * (v * ts);
@@ -397,9 +397,9 @@ impl World {
     }
 }
 
-/// SPEC §6, for every law: the target at `tp` is cornered when it lies within `d` of at least
-/// one wall, at least 2 wolves are within `d` of it, and it lies inside (or on) the convex
-/// hull of those wolves together with its closest points on every wall within `d` — the
+/// docs/world-and-laws.md §1.7, for every law: the target at `tp` is cornered when it lies within
+/// `d` of at least one wall, at least 2 wolves are within `d` of it, and it lies inside (or on) the
+/// convex hull of those wolves together with its closest points on every wall within `d` — the
 /// `encircle` test with the near walls standing in for wolves.
 pub(crate) fn cornered(wolves: &[AgentState], tp: Vec2, border: [f64; 4], d: f64) -> bool {
     let [x0, y0, x1, y1] = border;
@@ -448,11 +448,11 @@ fn clamp(c: Command, s: &SideParams) -> Command {
     Command { v: c.v.clamp(0.0, s.v_max), omega: c.omega.clamp(-s.omega_max, s.omega_max) }
 }
 
-/// Step 2's bookkeeping before any controller runs (SPEC §1.4), shared by the step and by
-/// `World::expert_desired` so that the expert sees exactly what the step will: every
-/// `retarget_period` steps (and whenever a wolf's own target has been captured) each wolf
-/// re-picks its nearest uncaptured target; then the sensing flags, the first sightings at step
-/// `t`, and the sensing entries of the (zeroed) interaction matrix.
+/// Step 2's bookkeeping before any controller runs (docs/world-and-laws.md §1.5), shared by the
+/// step and by `World::expert_desired` so that the expert sees exactly what the step will: every
+/// `retarget_period` steps (and whenever a wolf's own target has been captured) each wolf re-picks
+/// its nearest uncaptured target; then the sensing flags, the first sightings at step `t`, and the
+/// sensing entries of the (zeroed) interaction matrix.
 // The sightings loop indexes `seen` and a row of `interaction` by j, and tests the row with
 // `iter().any` rather than `contains` (a memchr call for five bytes): this is the step's
 // sensing, profiled as it stands.
