@@ -1,44 +1,48 @@
 """A slow, plain re-derivation of the wolfpack world from docs/world-and-laws.md alone (the test oracle).
 
 Scope: obstacle-free arenas, `seed000` wolves, `escape` (after its first sighting) or `still`
-targets, the `count` capture rule. Every function cites the SPEC section it re-derives. Nothing
-here is shared with the Rust core; `tests/test_alignment.py` runs both from the same layout and
-compares every step. World rules that SPEC leaves to the step (command clamping, re-assignment
-when a hunted target is captured, a captured target's zero command) follow §1.5 as written in
-rust/core/src/world/step.rs.
+targets, the `count` capture rule. Every function cites the section of docs/world-and-laws.md it
+re-derives (bare §n below). Nothing here is shared with the Rust core; `tests/test_alignment.py`
+runs both from the same layout and compares every step. World rules of the step (command
+clamping, §1.2; re-assignment when a hunted target is captured, §1.5; a captured target's zero
+command, §1.6) follow docs/world-and-laws.md §1.6 as coded in rust/core/src/world/step.rs.
 
-Readings taken where SPEC leaves room (each a plain choice, named so a disagreement can be traced
-to it; those in READINGS can be flipped, and the test pins the flipped ones as known failures):
+Readings taken where the laws' wording leaves room (each a plain choice, named so a disagreement
+can be traced to it; those in READINGS can be flipped, and the test pins the flipped ones as known
+failures):
 
-- §3 "nearest wolf that senses the target": a wolf j ≠ i within r_w of wolf i's target that also
-  hunts it (READINGS["follow_same_target_only"]; literally any wolf sensing it; they differ only
-  with M > 1).
-- §3 lost: ν₁ = lost_speed · (unit direction of the last non-zero ν₁), α still multiplies it;
-  zero while no non-zero ν₁ was ever computed.
+- §3.1, the nearest other wolf that senses the target: a wolf j ≠ i within r_w of wolf i's target
+  that also hunts it (READINGS["follow_same_target_only"]; literally any wolf sensing it; they
+  differ only with M > 1).
+- §3.1 lost (case 3): ν₁ = lost_speed · (unit direction of the last non-zero ν₁), α still
+  multiplies it; zero while no non-zero ν₁ was ever computed.
 - §3 a zero ν has no direction: θ_d := θ (READINGS["zero_velocity_keeps_heading"]).
-- §3 / §1.4 repulsion neighbours p, q count (and are "used") only when closer than r_w.
-- §1.4 partner wolves that are §4 avoidance items are "used information" too
-  (READINGS["partner_items_used"]; the SPEC's parenthetical lists only the followed partner
-  and p, q).
-- §4 only wall items carry a distance into the emergency test; partner items do not
-  (READINGS["partners_trigger_emergency"]; SPEC: "a merged interval keeps the distance of its
-  closest member … static circles excepted", which literally includes partners' centre distance).
-- §4 emergency applies to targets too ("the agent"); a new trigger while in danger restarts the
-  count with the new bisector; the remembered heading is bisector + π of the triggering step.
-- §4 "in danger for this and the next 2 steps" counts world steps: a step skipped by an early exit
+- §3.2 / §1.5 repulsion neighbours p, q count (and are "used") only when closer than r_w.
+- §1.5 partner wolves that are §4.1 avoidance items are information the law used, too
+  (READINGS["partner_items_used"], as §1.5 lists them; flipped: only the followed partner and
+  p, q).
+- §4.3 / §4.5 only wall items carry a distance into the emergency test; partner items do not
+  (READINGS["partners_trigger_emergency"], as §4.3 and §4.5 have it; flipped: a merged interval
+  keeps the distance of its closest member, partners' centre distance included, and only static
+  circles are exempt).
+- §4.5 emergency applies to targets too; a new trigger while in danger restarts the count with
+  the new bisector; the remembered heading is bisector + π of the triggering step.
+- §4.5 "for this step and the next 2" counts world steps: a step skipped by an early exit
   (or without items) still uses one of them up.
-- §4 normal mode at an exact tie (θ_d on the bisector, which happens whenever a wolf follows its
-  nearest partner j, j is a partner item and L ∥ ν₁): SPEC names no edge; `RefWorld.edge_tie`
-  decides (the comparison accepts the edge the Rust world took).
-- §4 target variant, "θ_d := nearer edge ∓ 0.01": nearer to θ (SPEC's wording) or, with the
-  project switch `avoidance.target_edge_from_desired` (config.rs), nearer to θ_d; angular
-  distances are circular, so θ_d may lie outside the interval.
-- §5 "none sensed": θ_d := θ and v_d := v · f(t)/f(t−1) with v the speed executed last step.
+- §4.7 normal mode at an exact tie (θ_d on the bisector, which happens whenever a wolf follows its
+  nearest partner j, j is a partner item and L ∥ ν₁): §4.7 gives a tie to the lower edge, but
+  rounding decides on which side of the bisector θ_d falls; `RefWorld.edge_tie` decides (the
+  comparison accepts the edge the Rust world took).
+- §4.8 target variant, θ_d := the nearer edge pushed out by 0.01: nearer to θ (a literal reading
+  of the variant's wording) or, with the project switch `avoidance.target_edge_from_desired`
+  (config.rs), nearer to θ_d; angular distances are circular, so θ_d may lie outside the interval.
+- §5.1, no wolf sensed now: θ_d := θ and v_d := v · f(t)/f(t−1) with v the speed executed last step.
 
-Project switches that depart from SPEC (config.rs, step.rs), followed when the params carry them:
-`avoidance.wall_emergency: false` exempts walls from the emergency (SPEC excepts only static
-circles); a wolf whose speed fell below 0.01 does not turn on the spot when the turned body
-would overlap a wolf (READINGS["turn_on_spot_checked"]; SPEC: "it only turns").
+Project switches that depart from the literal readings (§8; config.rs, step.rs), followed when the
+params carry them: `avoidance.wall_emergency: false` exempts walls from the emergency (the literal
+reading of §4.5 excepts only static circles); a wolf whose speed fell below 0.01 does not turn on
+the spot when the turned body would overlap a wolf (READINGS["turn_on_spot_checked"]; §1.6, the
+filter's rule 4; without it the wolf only turns).
 """
 
 from __future__ import annotations
@@ -49,18 +53,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-# Readings of SPEC that the Rust core may take differently (see the module docstring).
+# Readings of docs/world-and-laws.md that the Rust core may take differently (see the module docstring).
 READINGS = {
-    # §4: a partner item's centre distance counts towards the emergency (D_DANGER) test.
+    # §4.5: a partner item's centre distance counts towards the emergency (D_DANGER) test.
     "partners_trigger_emergency": False,
-    # §1.4: partner wolves that are avoidance items count as "used information".
+    # §1.5: partner wolves that are avoidance items count as information the law used.
     "partner_items_used": True,
     # §3: a zero ν has no direction; θ_d := θ (else angle 0).
     "zero_velocity_keeps_heading": True,
-    # §1.5 world rule of step.rs (not in SPEC): a wolf whose speed fell below 0.01 does not turn
+    # §1.6, the filter's rule 4 (a project rule, step.rs): a wolf whose speed fell below 0.01 does not turn
     # on the spot when the turned body would overlap another wolf and the unturned one would not.
     "turn_on_spot_checked": True,
-    # §3 (M > 1): the followed partner must also hunt wolf i's target (not merely sense it).
+    # §3.1 (M > 1): the followed partner must also hunt wolf i's target (not merely sense it).
     "follow_same_target_only": True,
 }
 
@@ -69,7 +73,7 @@ TAU = 2.0 * math.pi
 
 
 # --------------------------------------------------------------------------------------------
-# Angles (SPEC preamble: wrap maps into [0, 2π))
+# Angles (docs/world-and-laws.md, Conventions: wrap maps into [0, 2π))
 # --------------------------------------------------------------------------------------------
 def wrap(a: float) -> float:
     r = a % TAU
@@ -91,7 +95,7 @@ def angle_of(v) -> float:
 # §2 The saturator
 # --------------------------------------------------------------------------------------------
 def saturate(theta: float, theta_d: float, v_d: float, v_max: float, omega_max: float, ts: float):
-    """Desired (v_d, θ_d) → (v, ω) for an agent at heading θ (SPEC §2)."""
+    """Desired (v_d, θ_d) → (v, ω) for an agent at heading θ (§2)."""
     theta, theta_d = wrap(theta), wrap(theta_d)
     k = omega_max * ts
     e = wrap(theta - theta_d)
@@ -135,7 +139,7 @@ def triangles_overlap(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 # --------------------------------------------------------------------------------------------
-# §4 Danger intervals: circular merging and membership
+# §4.3 Danger intervals: circular merging and membership
 # --------------------------------------------------------------------------------------------
 @dataclass
 class Arc:
@@ -146,7 +150,7 @@ class Arc:
 
 def merge_arcs(items) -> list[Arc]:
     """items: (ψ, half-width, distance). Open intervals (ψ−h, ψ+h) that overlap circularly are
-    merged; a merged interval keeps its closest member's distance (SPEC §4)."""
+    merged; a merged interval keeps its closest member's distance (§4.3)."""
     arcs = sorted((Arc(wrap(psi - h), 2.0 * h, d) for psi, h, d in items), key=lambda a: a.lo)
     out: list[Arc] = []
     for a in arcs:
@@ -163,7 +167,7 @@ def merge_arcs(items) -> list[Arc]:
         c.dist = min(c.dist, f.dist)
     for c in out:
         if c.width >= TAU:
-            raise NotImplementedError("a merged danger interval covers the whole circle (SPEC silent)")
+            raise NotImplementedError("a merged danger interval covers the whole circle (not modelled here; §4.7)")
     return out
 
 
@@ -183,7 +187,7 @@ def nearer_edge_gap(arc: Arc, a: float) -> float:
     return abs(wrap_pi(a - arc.lo)) - abs(wrap_pi(a - arc.lo - arc.width))
 
 
-# |nearer_edge_gap| below this is an exact tie blurred by rounding: SPEC names no rule for it.
+# |nearer_edge_gap| below this is an exact tie blurred by rounding: §4.7's tie rule cannot see it.
 EDGE_TIE = 1e-9
 
 
@@ -192,7 +196,7 @@ def bisector(arc: Arc) -> float:
 
 
 # --------------------------------------------------------------------------------------------
-# The world (§1.2, §1.4, §1.5) with the laws (§3, §4, §5)
+# The world (§1.2, §1.5, §1.6) with the laws (§3, §4, §5)
 # --------------------------------------------------------------------------------------------
 @dataclass
 class Agent:
@@ -210,8 +214,8 @@ class Agent:
 
 @dataclass
 class Memory:
-    attraction_dir: np.ndarray | None = None  # §3 lost mode
-    danger_until: int = -1  # §4 emergency: last step of the current danger
+    attraction_dir: np.ndarray | None = None  # §3.1 lost mode
+    danger_until: int = -1  # §4.5 emergency: last step of the current danger
     danger_heading: float = 0.0
 
 
@@ -244,7 +248,7 @@ class RefWorld:
         self.hits = Counter()  # which branches of the laws ran (coverage of the comparison)
         self.assign_targets()
 
-    # ---- §1.4 target assignment and sensing ---------------------------------------------
+    # ---- §1.5 target assignment and sensing ---------------------------------------------
     def assign_targets(self):
         """Each wolf hunts its nearest uncaptured target (ties: lowest index)."""
         for i, w in enumerate(self.wolves):
@@ -271,12 +275,12 @@ class RefWorld:
             if self.seen_at[j] is None and self.interaction[n + j, :n].any():
                 self.seen_at[j] = self.t
 
-    # ---- §5 fatigue curve ----------------------------------------------------------------
+    # ---- §5.1 fatigue curve --------------------------------------------------------------
     def fatigue(self, t_seen: int, t: int) -> float:
         e = self.P["escape"]
         return e["fatigue_base"] * (2.0 - 1.0 / (1.0 + math.exp(e["fatigue_slope"] * (e["fatigue_delay"] + t_seen - t))))
 
-    # ---- §4 items ------------------------------------------------------------------------
+    # ---- §4.1 items ----------------------------------------------------------------------
     def wall_items(self, a: Agent):
         """Walls within wall_range: ψ perpendicular towards the wall, Δ = acos(d / range)."""
         x0, y0, x1, y1 = self.P["world"]["border"]
@@ -288,15 +292,15 @@ class RefWorld:
         return out
 
     def danger_dist(self, kind: str, d: float) -> float:
-        """The distance an item brings to the emergency test (§4; ∞: it never triggers one).
+        """The distance an item brings to the emergency test (§4.5; ∞: it never triggers one).
         `avoidance.wall_emergency: false` (a documented project switch, config.rs) exempts walls,
-        which SPEC does not."""
+        which the literal reading of §4.5 does not."""
         if kind == "wall":
             return d if self.P["avoidance"].get("wall_emergency", True) else math.inf
         return d if READINGS["partners_trigger_emergency"] else math.inf
 
     def emergency_or_none(self, a: Agent, mem: Memory, arcs, v_max: float):
-        """§4 emergency: a merged interval closer than D_DANGER puts the agent in danger for this
+        """§4.5 emergency: a merged interval closer than D_DANGER puts the agent in danger for this
         and the next danger_steps−1 steps; it heads away from that bisector at v_max (or 0 when
         that turn exceeds π/2). Returns (v, θ) while in danger, else None."""
         A = self.P["avoidance"]
@@ -315,8 +319,8 @@ class RefWorld:
 
     # ---- §3 + §4: the seed000 wolf -----------------------------------------------------------
     def wolf_command(self, i: int):
-        """SPEC §3: ν = α ν₁ + β ν₂, then §4 avoidance, then the §2 saturator. Returns
-        ((v, ω), the wolves whose information was used (§1.4))."""
+        """§3: ν = α ν₁ + β ν₂, then §4 avoidance, then the §2 saturator. Returns
+        ((v, ω), the wolves whose information was used (§1.5))."""
         P, S = self.P, self.P["seed000"]
         W = self.wolves
         me = W[i]
@@ -361,14 +365,14 @@ class RefWorld:
         u = np.array([a1[1], -a1[0]]) / na1 if na1 > 0 else np.array([0.0, -1.0])
         nu = S["alpha"] * a1 + S["beta"] * float(L @ u) * u
         v_d = float(np.linalg.norm(nu))
-        # a zero desired velocity has no direction: keep the heading (SPEC silent)
+        # a zero desired velocity has no direction: keep the heading (§3)
         th_d = angle_of(nu) if v_d > 0 or not READINGS["zero_velocity_keeps_heading"] else me.th
         v_d, th_d = self.wolf_avoid(i, v_d, th_d)
         wp = P["agents"]["wolf"]
         return saturate(me.th, th_d, v_d, wp["v_max"], wp["omega_max"], P["world"]["ts"]), used
 
     def wolf_avoid(self, i: int, v_d: float, th_d: float):
-        """SPEC §4 for a wolf in an obstacle-free arena: walls and partner wolves."""
+        """§4 for a wolf in an obstacle-free arena: walls and partner wolves."""
         P, A, S = self.P, self.P["avoidance"], self.P["seed000"]
         me, mem = self.wolves[i], self.wolf_mem[i]
         items = self.wall_items(me)
@@ -423,9 +427,9 @@ class RefWorld:
         the Rust world took (either is admissible). Default: the upper (counter-clockwise) one."""
         return upper
 
-    # ---- §5 + §4 target variant: the escape target ---------------------------------------
+    # ---- §5.1 + §4.8 target variant: the escape target -----------------------------------
     def target_command(self, j: int):
-        """SPEC §5 escape (after the first sighting) or `still`, then §4 target variant, then §2."""
+        """§5.1 escape (after the first sighting) or `still` (§5.3), then the §4.8 target variant, then §2."""
         P = self.P
         T = self.targets[j]
         tp_ = P["agents"]["target"]
@@ -448,7 +452,7 @@ class RefWorld:
         return saturate(T.th, th_d, v_d, tp_["v_max"], tp_["omega_max"], ts)
 
     def target_avoid(self, j: int, v_d: float, th_d: float):
-        """SPEC §4 target variant: walls only, the test uses the current heading θ."""
+        """§4.8 target variant: walls only, the test uses the current heading θ."""
         P, A = self.P, self.P["avoidance"]
         T, mem = self.targets[j], self.target_mem[j]
         tp_ = P["agents"]["target"]
@@ -464,7 +468,7 @@ class RefWorld:
             return em
         for c in arcs:
             if strictly_inside(c, T.th):
-                # "nearer edge": nearer to θ (SPEC's wording) or, with the project switch
+                # "nearer edge": nearer to θ (the literal reading of §4.8) or, with the project switch
                 # avoidance.target_edge_from_desired, nearer to θ_d (source eq. 13)
                 self.hits["target edge"] += 1
                 lower, upper = edges_out(c, A["edge_margin"])
@@ -477,9 +481,9 @@ class RefWorld:
             return v_d, T.th
         return v_d, th_d
 
-    # ---- §1.5 one synchronous step ---------------------------------------------------------
+    # ---- §1.6 one synchronous step ---------------------------------------------------------
     def step(self) -> str:
-        """SPEC §1.5: every controller reads the same snapshot; wolves move in index order through
+        """§1.6: every controller reads the same snapshot; wolves move in index order through
         the feasibility filter, then targets; then outcomes."""
         if self.outcome != "running":
             return self.outcome
@@ -519,7 +523,7 @@ class RefWorld:
                 return x0 < x < x1 and y0 < y < y1 and not any(triangles_overlap(me, bodies[k]) for k in range(self.n) if k != i)
 
             if P["world"]["feasibility_filter"]:
-                # §1.5 step 3: a move feasible as commanded is made as commanded, however small
+                # §1.6 step 3: a move feasible as commanded is made as commanded, however small
                 # its v; the 0.01 floor applies only to a speed reached by halving.
                 commanded = v
                 while True:
@@ -554,7 +558,7 @@ class RefWorld:
             om = min(max(om, -side["omega_max"]), side["omega_max"])
             if self.captured[j]:
                 v, om = 0.0, 0.0
-            if side["fatigue"] and self.seen_at[j] is not None:  # fatigue as a world rule (§5)
+            if side["fatigue"] and self.seen_at[j] is not None:  # fatigue as a world rule (§5.2)
                 v = min(v, self.fatigue(self.seen_at[j], self.t))
             th = wrap(T.th + om * ts)
             x, y = T.x + v * math.cos(T.th) * ts, T.y + v * math.sin(T.th) * ts

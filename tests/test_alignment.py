@@ -8,10 +8,10 @@ the capture step. The escape target always senses a wolf at step 0, so its law i
 
 Tolerance: 1e-9 absolute. Over these 200-step episodes the two sides drift apart by at most
 ~4e-11 (rounding only); a wrong branch shows up as ≥ 1e-3. Each case also names branches of the
-reference it must exercise, so a layout that stops covering them fails loudly. Where SPEC admits
-more than one outcome (an exact tie between the two edges of a danger interval), the comparison
-accepts the one the Rust world took; SPEC readings the Rust core took differently from the
-literal text are pinned as strict xfails at the end.
+reference it must exercise, so a layout that stops covering them fails loudly. Where rounding
+admits more than one outcome (an exact tie between the two edges of a danger interval,
+docs/world-and-laws.md §4.7), the comparison accepts the one the Rust world took; readings of the
+laws' wording that the Rust core does not take are pinned as strict xfails at the end.
 """
 
 from __future__ import annotations
@@ -74,7 +74,8 @@ def make_close_layout(rng, n_wolves=5, near=(1.4, 2.4)):
     """The published reference's start: one target uniform in the central box, every wolf at a
     distance in `near` of it (random direction, pairwise >= 0.5 apart), random headings. From
     such starts a wolf facing away from the target is commanded a tiny first speed (the
-    saturator's 1 − e/π), which the feasibility filter must make as commanded (SPEC §1.5)."""
+    saturator's 1 − e/π), which the feasibility filter must make as commanded
+    (docs/world-and-laws.md §1.6)."""
     for _ in range(10_000):
         target = rng.uniform(-6.0, 6.0, size=2)
         wolves = []
@@ -91,7 +92,7 @@ def make_close_layout(rng, n_wolves=5, near=(1.4, 2.4)):
     return {"wolves": [pose(p) for p in wolves], "targets": [pose(target)], "obstacles": []}
 
 
-CLOSE_STARTS = 30  # SPEC §1.5 step 3 and the published reference's close starts
+CLOSE_STARTS = 30  # docs/world-and-laws.md §1.6 step 3 and the published reference's close starts
 
 # (name, layout builder args, params overrides, reference branches the case must exercise)
 CASES = []
@@ -119,7 +120,7 @@ for s in range(2):  # one target is captured (and freezes) well before the other
     CASES.append((f"two-targets-still-{s}", dict(seed=450 + s, n_targets=2), {"policies.targets": "still", "capture.count": 3}, ["wolf follows"]))
 for s in range(3):  # the project's defaults: walls exempt from the emergency
     CASES.append((f"defaults-{s}", dict(seed=800 + s, box=[((5.5, -9.6), (9.6, 9.6)), ((-6.0, -6.0), (6.0, 6.0))][s % 2]), {"avoidance.wall_emergency": False}, ["wolf wall item", "target edge"]))
-for s in range(2):  # the target variant's "nearer edge" measured from θ (SPEC's wording) instead of θ_d
+for s in range(2):  # the target variant's "nearer edge" measured from θ (the literal wording, docs/world-and-laws.md §4.8) instead of θ_d
     CASES.append((f"target-edge-from-heading-{s}", dict(seed=850 + s, box=((5.5, -9.6), (9.6, 9.6))), {"avoidance.target_edge_from_desired": False}, ["target edge", "emergency trigger"]))
 CASES.append(("eight-wolves", dict(seed=700, n_wolves=8, box=((-4.0, -4.0), (4.0, 4.0))), {}, ["wolf close partner"]))
 for s in range(2):
@@ -141,10 +142,10 @@ CASES.append(("edge-tie-1", dict(seed=1000, n_wolves=3), {"agents.wolf.v_max": 0
 CASES = [(n, a, {**o, "world.max_steps": SETTLES[n]} if n in SETTLES else o, h) for n, a, o, h in CASES]
 
 
-# Project switches (config.rs) that depart from SPEC's wording are set to SPEC's reading for the
-# comparison; the project's defaults are compared too, in the `defaults-*` cases. A switch the
-# core does not (or no longer) know is left out.
-SPEC_SWITCHES = {"avoidance.wall_emergency": True}
+# Project switches (config.rs; docs/world-and-laws.md §8) that depart from the laws' literal wording
+# are set to the literal reading for the comparison; the project's defaults are compared too, in the
+# `defaults-*` cases. A switch the core does not (or no longer) know is left out.
+LITERAL_READING_SWITCHES = {"avoidance.wall_emergency": True}
 PROJECT_SWITCHES = {"avoidance.wall_emergency", "avoidance.target_edge_from_desired"}
 
 
@@ -160,7 +161,7 @@ def _build(args, overrides):
     layout = make_close_layout(rng, **{k: v for k, v in args.items() if k != "close"}) if args.get("close") else make_layout(rng, **args)
     n = len(layout["wolves"])
     over = {"world.max_steps": MAX_STEPS, "world.wolves": n, "world.targets": len(layout["targets"])}
-    over.update({k: v for k, v in SPEC_SWITCHES.items() if _known(k)})
+    over.update({k: v for k, v in LITERAL_READING_SWITCHES.items() if _known(k)})
     over.update({k: v for k, v in overrides.items() if k not in PROJECT_SWITCHES or _known(k)})
     if "capture.count" not in over:
         over["capture.count"] = None
@@ -197,8 +198,9 @@ def compare(name, params, layout, seed=0):
     wp, ts = params["agents"]["wolf"], params["world"]["ts"]
 
     def rust_edge(i, v_d, lower, upper):
-        """At an exact tie (θ_d on the bisector) SPEC admits either edge: take the one whose
-        command the Rust world executed (v may since have been halved by the filter)."""
+        """At an exact tie (θ_d on the bisector) rounding admits either edge (docs/world-and-laws.md
+        §4.7): take the one whose command the Rust world executed (v may since have been halved by
+        the filter)."""
         if ref.t + 1 >= tr["wolves"].shape[0]:
             return upper
         v_r, om_r = tr["wolves"][ref.t + 1][i][3:]
@@ -263,9 +265,9 @@ def test_rust_world_matches_the_reference_model(name, args, overrides, must_hit)
 
 
 def test_close_starts_are_compared_long_enough_and_make_tiny_first_moves():
-    """SPEC §1.5 step 3 on the reference's close starts: at least 30 layouts, each compared over
-    at least 60 moves, and among them first moves commanded below 0.01 m/s that are feasible and
-    must be made as commanded (a filter that stops them drifts from the first step)."""
+    """docs/world-and-laws.md §1.6 step 3 on the reference's close starts: at least 30 layouts, each
+    compared over at least 60 moves, and among them first moves commanded below 0.01 m/s that are
+    feasible and must be made as commanded (a filter that stops them drifts from the first step)."""
     names = [c[0] for c in CASES if c[0].startswith("close-start-")]
     assert len(names) >= 30 + 1
     runs = {n: _compare_case(n) for n in names}
@@ -286,29 +288,29 @@ def test_two_targets_are_captured_at_different_steps():
     assert not problems and ref.outcome == "captured" and len(set(ref.capture_step)) == 2
 
 
-# SPEC leaves these readings open; the Rust core took the other one (see reference_model's
+# Readings of the laws' wording that the Rust core does not take (see reference_model's
 # docstring). Each flipped reading is pinned here: it must keep failing on a case that exercises it.
 AMBIGUOUS = [
     (
         "partners_trigger_emergency",
         True,
         "eight-wolves",
-        "SPEC §4 ambiguity: 'a merged interval keeps the distance of its closest member' and only "
-        "static circles are excepted from the emergency, so a partner wolf closer than D_DANGER "
-        "(centre distance) literally triggers it; the Rust core lets only walls/obstacles trigger "
-        "it and leaves close partners to the close-partner rule",
+        "docs/world-and-laws.md §4.3, §4.5: read literally, a merged interval keeps the distance of its closest member, "
+        "partners included, and only static circles are exempt from the emergency, so a partner wolf "
+        "closer than D_DANGER (centre distance) would trigger it; the Rust core lets only walls/obstacles "
+        "trigger it and leaves close partners to the close-partner rule",
     ),
     (
         "follow_same_target_only",
         False,
         "two-targets-3",
-        "SPEC §3 ambiguity (M > 1): 'j is the nearest wolf that senses the target' — literally any wolf within r_w of wolf i's target; the Rust core follows only wolves that also hunt it",
+        "docs/world-and-laws.md §3.1 ambiguity (M > 1): j is the nearest other wolf that senses the target — literally any wolf within r_w of wolf i's target; the Rust core follows only wolves that also hunt it",
     ),
     (
         "partner_items_used",
         False,
         "open-0",
-        "SPEC §1.4 ambiguity: it lists 'followed partner, repulsion neighbours p, q' as used information; the Rust core also marks partner wolves that are §4 avoidance items",
+        "docs/world-and-laws.md §1.5: the information a wolf used includes partner wolves that are §4.1 avoidance items, which the Rust core marks; the flipped reading marks only the followed partner and the repulsion neighbours p, q",
     ),
 ]
 

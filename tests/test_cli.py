@@ -29,7 +29,7 @@ BAD_ARGS = [
     (["--set", "world.max_steps=0"], "world.max_steps"),
     (["--set", "world.border=[5,-10,5,10]"], "world.border"),  # x_min ≥ x_max
     (["--set", "capture.count=6"], "capture.count"),  # more than the wolves
-    (["--set", "capture.arrive_tolerance=0"], "capture.arrive_tolerance"),  # SPEC §6 success rules
+    (["--set", "capture.arrive_tolerance=0"], "capture.arrive_tolerance"),  # docs/world-and-laws.md §1.7 success rules
     (["--set", "capture.arrive_tolerance=-0.2"], "capture.arrive_tolerance"),
     (["--set", "capture.cornered=1"], "capture.cornered"),
     (["--set", "capture.cornered=sometimes"], "capture.cornered"),
@@ -288,10 +288,10 @@ def test_trajectory_npz_shapes_dtypes_and_row_semantics(small_run):
         agents = np.concatenate([a["wolves"], a["targets"]], axis=1)
         assert (agents[0, :, 3:] == 0).all()
         assert (a["energy"][0] == 0).all()
-        # Row t holds the speed of step t: energy grows by ½ m v² per step (SPEC §1.2) ...
+        # Row t holds the speed of step t: energy grows by ½ m v² per step (docs/world-and-laws.md §1.2) ...
         np.testing.assert_allclose(np.diff(a["energy"], axis=0), 0.5 * mass * agents[1:, :, 3] ** 2, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(a["energy"][-1], d["energy"], rtol=1e-12)
-        # ... and the position moves by v Ts along the previous heading (unicycle, SPEC §1.2).
+        # ... and the position moves by v Ts along the previous heading (unicycle, §1.2).
         step = agents[1:, :, :2] - agents[:-1, :, :2]
         heading = np.stack([np.cos(agents[:-1, :, 2]), np.sin(agents[:-1, :, 2])], axis=-1)
         np.testing.assert_allclose(step, agents[1:, :, 3:4] * ts * heading, atol=1e-9)
@@ -423,7 +423,7 @@ def test_bench_reports_throughput_for_one_thread_and_all_cores(cli):
 
 
 def test_cornered_targets_are_counted_and_end_episodes_only_when_asked(cli, tmp_path):
-    """SPEC §6: without capture.cornered cornering is only counted; with it a cornered target is
+    """docs/world-and-laws.md §1.7: without capture.cornered cornering is only counted; with it a cornered target is
     a success of its own (outcome ``cornered``), so bvc's success rate is at least its capture
     rate without it, on the same episodes."""
     plain = json.loads(cli("hunt", "--wolves", "bvc", "--episodes", "40", "--seed", "0", "--json").stdout)

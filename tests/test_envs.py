@@ -362,7 +362,7 @@ def test_vec_env_and_batch_bad_actions():
 
 
 def test_cornered_episodes_terminate_and_infos_carry_the_cornered_step():
-    """SPEC §6 through the batch and the ParallelEnv: with capture.cornered a cornered target
+    """docs/world-and-laws.md §1.7 through the batch and the ParallelEnv: with capture.cornered a cornered target
     terminates its world with outcome code 4 (``cornered``), its ``capture_step`` and
     ``cornered_step`` both that step; ``infos[agent]["cornered_step"]`` is an int (−1 until a
     target is cornered) at every step."""
