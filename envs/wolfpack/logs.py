@@ -1,4 +1,5 @@
-"""Output files of ``wolfpack hunt --out DIR`` (world-and-laws §1.7 logs).
+"""Output files of ``wolfpack hunt --out DIR``: the logs of docs/world-and-laws.md §1.7, in the formats of
+docs/interface.md#wolfpack-hunt and docs/interface.md#trajectorynpz.
 
 Layout of ``DIR``::
 
