@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -25,6 +26,16 @@ SHORT = ("--set", "world.max_steps=120")
 def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     """Runs ``wolfpack ARGS`` in a fresh interpreter (stderr is a pipe, so no progress bar)."""
     return subprocess.run([sys.executable, "-m", "wolfpack.cli", *map(str, args)], capture_output=True, text=True, timeout=timeout)
+
+
+def popen_interruptible(args, **kwargs) -> subprocess.Popen:
+    """``subprocess.Popen(args, **kwargs)`` whose child takes Ctrl-C as a user's process does.
+
+    A test run started in the background (``nohup … &`` from a script, or a CI runner that
+    starts its jobs so) has SIGINT ignored, and a child inherits that: Python then installs no
+    KeyboardInterrupt handler, and a SIGINT the test sends does nothing. The child gets the
+    default disposition back before it starts."""
+    return subprocess.Popen(args, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL), **kwargs)
 
 
 @pytest.fixture

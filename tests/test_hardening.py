@@ -17,7 +17,7 @@ import gymnasium
 import numpy as np
 import pytest
 import wolfpack
-from conftest import SHORT, layout_dict, synthetic_result
+from conftest import SHORT, layout_dict, popen_interruptible, synthetic_result
 from test_cli import assert_clean_failure
 from wolfpack import _core, cli, logs, outputs
 from wolfpack._checks import MAX_THREADS
@@ -364,6 +364,18 @@ def test_force_replaces_an_interrupted_run_and_its_marker(cli, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no temporary sibling left
 
 
+@pytest.fixture(autouse=True)
+def _sigint_as_in_a_terminal():
+    """The in-process Ctrl-C tests below run the CLI as a terminal runs it, where it installs
+    its own SIGINT handler. A test run started in the background has SIGINT ignored, and the
+    CLI then leaves Ctrl-C alone on purpose; each test also starts with no Ctrl-C pending."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    cli._CtrlC.pending = False
+    yield
+    signal.signal(signal.SIGINT, previous)
+    cli._CtrlC.pending = False
+
+
 def _interrupt_inside_savez(monkeypatch, after: int):
     """Makes the (after+1)-th trajectory write fail the way Ctrl-C would: KeyboardInterrupt
     from inside np.savez_compressed, with part of the file written."""
@@ -597,7 +609,7 @@ def _interrupt(args, ready, cwd=None, settle: float = 0.3) -> tuple[subprocess.C
     """Starts ``wolfpack ARGS``, waits until ``ready(pid)`` (at most 60 s), then ``settle``
     seconds more, sends SIGINT and waits for the exit; returns the process and the seconds from
     the signal to the exit (the process is killed if it does not end within 20 s)."""
-    proc = subprocess.Popen([sys.executable, "-m", "wolfpack", *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=cwd)
+    proc = popen_interruptible([sys.executable, "-m", "wolfpack", *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=cwd)
     try:
         deadline = time.monotonic() + 60
         while not ready(proc.pid):

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import popen_interruptible
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -186,7 +187,7 @@ DELAYS = [0.0, *np.round(np.random.default_rng(0).uniform(0.05, 3.0, size=2), 2)
 @pytest.mark.parametrize("delay", DELAYS)
 def test_training_interrupted_anywhere_leaves_a_folder_a_rerun_reuses_or_resume_continues(tmp_path, delay):
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "wolfpack", *TRAIN_ARGS, "--timesteps", "20000", "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    proc = popen_interruptible([sys.executable, "-m", "wolfpack", *TRAIN_ARGS, "--timesteps", "20000", "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         deadline = time.monotonic() + 60
         while not (out / "config.yaml").is_file():

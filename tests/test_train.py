@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import popen_interruptible
 
 torch = pytest.importorskip("torch")
 
@@ -371,7 +372,7 @@ def test_ctrl_c_stops_promptly_and_keeps_the_models(tmp_path):
     import time
 
     out = tmp_path / "run"
-    proc = subprocess.Popen(
+    proc = popen_interruptible(
         [
             sys.executable,
             "-m",
