@@ -424,10 +424,11 @@ def figure(card: dict, path: str | Path) -> None:
     ax.set_xlabel(f"{SKILL[card['side']][1]} (% of {card['episodes']} held-out episodes)")
     ax.grid(axis="x", color="0.9")
     ax.set_axisbelow(True)
-    fig.suptitle(f"{card['policy']} as the {card['side']}, on every task", fontsize=11)
-    ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, fontsize=8, frameon=False)
+    scope = "every variation" if card.get("track") == "generalisation" else "every task" if tasks == list(TASK_ORDER) else ", ".join(tasks)
+    fig.suptitle(f"{card['policy']} as the {card['side']}, on {scope}", fontsize=11)
+    ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8, frameon=False)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")  # a long policy name widens the legend
     plt.close(fig)
 
 
