@@ -29,8 +29,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
-from wolfpack.opponents import SCRIPTED_LAWS
 from wolfpack.scorecard import BASELINES_FILE, DEFAULT_EPISODES, SKILL
+from wolfpack.sides import SCRIPTED_LAWS
 from wolfpack.task import TASK_ORDER, task_params
 
 WOLF_LAWS = SCRIPTED_LAWS["wolves"]

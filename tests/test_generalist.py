@@ -17,9 +17,9 @@ torch = pytest.importorskip("torch")
 
 import wolfpack  # noqa: E402
 from wolfpack.learn import train  # noqa: E402
-from wolfpack.learn.sets import EntityNorm, SetNet, encode_mean_max, row_encoder  # noqa: E402
 from wolfpack.learn.tasks import VARIANTS, parse_vary  # noqa: E402
 from wolfpack.models import load_policy  # noqa: E402
+from wolfpack.networks.sets import EntityNorm, SetNet, encode_mean_max, row_encoder  # noqa: E402
 from wolfpack.scorecard import as_policy, best_law, load_baselines, scorecard  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

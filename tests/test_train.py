@@ -103,7 +103,7 @@ def test_mappo_critic_reads_the_state_and_ippo_does_not(tmp_path):
 
 
 def test_the_critic_projects_the_state_once_per_world_as_the_joined_input_would():
-    from wolfpack.learn.nets import Critic
+    from wolfpack.networks.mlp import Critic
 
     torch.manual_seed(0)
     for agent_id in (False, True):

@@ -37,7 +37,7 @@ import imitate  # noqa: E402
 import seeds  # noqa: E402
 import selfplay  # noqa: E402
 import yaml  # noqa: E402
-from wolfpack.opponents import SCRIPTED_LAWS  # noqa: E402
+from wolfpack.sides import SCRIPTED_LAWS  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BEGIN = re.compile(r"^<!-- generated: ([a-z0-9-]+) -->\n", re.M)

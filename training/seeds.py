@@ -55,7 +55,7 @@ def median_capture_step(rows: list[dict]) -> float | None:
 
 def opponents_of(side: str, specs: list[str]) -> list:
     """The --against policies of the other side: laws by name, models loaded, leagues expanded."""
-    from wolfpack.opponents import SCRIPTED_LAWS
+    from wolfpack.sides import SCRIPTED_LAWS
 
     out = []
     for spec in specs:

@@ -81,8 +81,11 @@ from wolfpack.batch import resolve_params  # noqa: E402
 from wolfpack.config import parse_override  # noqa: E402
 from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides  # noqa: E402
 from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
-from wolfpack.models import load_tensors  # noqa: E402
-from wolfpack.opponents import CONFIG_FILE, side_action_mode  # noqa: E402
+from wolfpack.models import (
+    CONFIG_FILE,
+    load_tensors,  # noqa: E402
+)
+from wolfpack.sides import side_action_mode  # noqa: E402
 
 LEAGUE_FILE = "league.json"
 #: 2: members trained by ``wolfpack train``'s trainer (1 was SB3's PPO).

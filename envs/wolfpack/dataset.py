@@ -35,8 +35,9 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from wolfpack.batch import OUTCOMES, BatchEnv
-from wolfpack.opponents import SIDES, Opponent, bring_observation, mode_key
+from wolfpack.opponents import Opponent
 from wolfpack.outputs import Outputs
+from wolfpack.sides import SIDES, bring_observation, mode_key
 from wolfpack.task import check_task, gym_id, single_target_tasks, task_params
 
 #: The arrays of ``trajectories.npz``: per step (T = all episodes' steps), per episode (K), or

@@ -31,7 +31,113 @@ from typing import Any
 
 import numpy as np
 
-from wolfpack.opponents import CONFIG_FILE, SIDES, find_model, load_sb3, read_config, run_label, side_action_mode
+from wolfpack.sides import SIDES, side_action_mode
+
+#: Where a run folder keeps its model and its configuration (training/).
+MODEL_FILE = "model.zip"
+CONFIG_FILE = "config.yaml"
+
+
+def read_config(path: Path) -> dict:
+    """A model's ``config.yaml`` as a mapping (an empty file: {}); ValueError naming the file
+    when it is not YAML or not a mapping of keys."""
+    import yaml
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (a model's config.yaml is YAML)") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(e, "problem", None) or "unreadable"
+        raise ValueError(f"{path}: not valid YAML{at} ({problem}); a model's config.yaml is a mapping of keys (side, algo, network, params)") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        what = "a list" if isinstance(data, list) else f"the single value {_short_value(data)}"
+        raise ValueError(f"{path}: holds {what}, not a mapping of keys (side, algo, network, params)")
+    return data
+
+
+def _short_value(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def find_model(where: str | Path) -> tuple[Path, Path | None]:
+    """(the model's zip, its run's ``config.yaml`` or None) for a zip path (``.zip`` may be left
+    out) or a run folder (``DIR/model.zip``); a checkpoint's run folder is its zip's parent or
+    grandparent. FileNotFoundError naming the zip when there is none."""
+    path = Path(where)
+    zip_path = path / MODEL_FILE if path.is_dir() else (path if path.suffix == ".zip" else path.with_suffix(".zip"))
+    if not zip_path.is_file():
+        raise FileNotFoundError(zip_path)
+    config = next((d / CONFIG_FILE for d in (zip_path.parent, zip_path.parent.parent) if (d / CONFIG_FILE).is_file()), None)
+    return zip_path, config
+
+
+def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
+    """An SB3 model from its zip: with ``algo`` (``ppo``, ``sac``, ``a2c``, ``td3``) that class,
+    else the class whose policy the zip holds. ValueError naming the file when it is no SB3
+    model."""
+    from wolfpack._optional import require
+
+    sb3 = require("stable_baselines3", f"loading the SB3 model {zip_path}")
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    classes = {"ppo": sb3.PPO, "sac": sb3.SAC, "a2c": sb3.A2C, "td3": sb3.TD3}
+    try:
+        if algo is None:
+            data, _, _ = load_from_zip_file(zip_path, device=device, load_data=True)
+            policy = getattr(data.get("policy_class"), "__module__", "") if data else ""
+            algo = next((k for k in ("sac", "td3") if f".{k}." in f".{policy}."), "ppo")
+        if algo not in classes:
+            raise ValueError(f"unknown algorithm {algo!r} (one of {', '.join(classes)})")
+        return classes[algo].load(zip_path, device=device)
+    except Exception as e:  # a truncated or foreign zip: say which file
+        raise ValueError(f"model {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
+
+
+def sample_sb3(model: Any, obs: np.ndarray, rng: np.random.Generator, name: str) -> np.ndarray:
+    """A draw from an SB3 model's (or policy's) action distribution with the generator ``rng``
+    (torch's global one would tie the draw to a learner's random stream): Gaussian policies
+    (PPO, A2C) mean + σ·ε, clipped to [-1, 1] as SB3 does; SAC's squashed Gaussian
+    tanh(mean + σ·ε). ValueError naming ``name`` when the policy has no such distribution."""
+    import torch
+
+    policy = getattr(model, "policy", model)
+    with torch.no_grad():
+        t = torch.as_tensor(obs, device=policy.device)
+        if hasattr(policy, "actor") and hasattr(policy.actor, "get_action_dist_params"):
+            mean, log_std, _ = policy.actor.get_action_dist_params(t)
+            mean, std = mean.cpu().numpy(), log_std.exp().cpu().numpy()
+            return np.tanh(mean + std * rng.standard_normal(mean.shape))
+        if not hasattr(policy, "get_distribution"):
+            raise ValueError(f"{name}: cannot sample from a {type(policy).__name__} (use deterministic=True)")
+        dist = policy.get_distribution(t).distribution
+        if not (hasattr(dist, "mean") and hasattr(dist, "stddev")):
+            raise ValueError(f"{name}: cannot sample from a {type(dist).__name__} distribution (use deterministic=True)")
+        mean, std = dist.mean.cpu().numpy(), dist.stddev.cpu().numpy()
+    return np.clip(mean + std * rng.standard_normal(mean.shape), -1.0, 1.0)
+
+
+def run_label(zip_path: Path, config: dict) -> str:
+    """``<kind>:<run folder>`` as training/evaluate.py names models (``ppo:wolves_ft``,
+    ``imitation:wolves_bc``; a checkpoint adds its file: ``ppo:run/rollout_100000_steps``; a
+    member of a selfplay.py league: ``ppo:<league folder>/<member>``)."""
+    kind = "imitation" if "imitation_of" in config else str(config.get("algo", "sb3"))
+    league = (config.get("league_member") or {}).get("league")
+    if league and zip_path.name == MODEL_FILE:
+        # Every league names its members wolves_g02, targets_g01...: the league tells them apart.
+        return f"{kind}:{Path(league).name}/{zip_path.parent.name}"
+    if zip_path.name == MODEL_FILE:
+        return f"{kind}:{zip_path.parent.name}"
+    run = zip_path.parent if (zip_path.parent / CONFIG_FILE).is_file() else zip_path.parent.parent
+    return f"{kind}:{run.name}/{zip_path.stem}"
+
 
 #: The native model folder's weights file.
 POLICY_FILE = "policy.pt"
@@ -49,10 +155,10 @@ def native_model_folders(where: str | Path) -> dict[str, Path]:
     return {side: path / side for side in SIDES if (path / side / POLICY_FILE).is_file()}
 
 
-#: The keys of a native model's ``network:`` (the actor's shape, :class:`wolfpack.learn.nets.Actor`).
+#: The keys of a native model's ``network:`` (the actor's shape, :class:`wolfpack.networks.mlp.Actor`).
 NETWORK_KEYS = ("obs_dim", "agents", "hidden", "activation", "log_std_init", "agent_id", "norm_obs")
 #: The same for a model over entity observations (``kind: entities``,
-#: :class:`wolfpack.learn.sets.EntityActor`).
+#: :class:`wolfpack.networks.sets.EntityActor`).
 ENTITY_NETWORK_KEYS = ("kind", "self_dim", "row_size", "obs_dim", "hidden", "entity_width", "pool", "heads", "activation", "log_std_init", "norm_obs", "wall_rows")
 
 
@@ -188,7 +294,7 @@ class NativePolicy(SavedPolicy):
         from wolfpack._optional import require
 
         require("torch", f"loading the model {folder}")
-        from wolfpack.learn.sets import build_actor
+        from wolfpack.networks.sets import build_actor  # torch, only where a native model is loaded
 
         arch = config["network"]
         super().__init__(side=config["side"], algo=config["algo"], obs_dim=int(arch["obs_dim"]), config=config, name=native_label(folder, config), path=folder)
@@ -242,11 +348,7 @@ class SB3Policy(SavedPolicy):
         if deterministic or rng is None:
             actions, _ = self.model.predict(x, deterministic=deterministic)
             return np.clip(np.asarray(actions, dtype=np.float32), -1.0, 1.0)
-        from wolfpack.opponents import Opponent
-
-        sampler = Opponent(self.model, deterministic=False)
-        sampler._rng = rng
-        return sampler.act(x)
+        return sample_sb3(self.model, x, rng, f"model {self.name!r}").astype(np.float32)
 
 
 def _one_line(e: BaseException) -> str:

@@ -40,167 +40,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from wolfpack import _core
-
-SIDES = ("wolves", "targets")
-#: The scripted laws each side can follow, by name (the core's own lists).
-SCRIPTED_LAWS: dict[str, tuple[str, ...]] = {"wolves": tuple(_core.WOLF_LAWS), "targets": tuple(_core.TARGET_LAWS)}
-ACTION_MODES = ("unicycle", "velocity")
-#: Where a run folder keeps its model and its configuration (training/).
-MODEL_FILE = "model.zip"
-CONFIG_FILE = "config.yaml"
-
-
-def mode_key(side: str) -> str:
-    """The params key under ``env`` of ``side``'s own action mode."""
-    return "wolf_action_mode" if side == "wolves" else "target_action_mode"
-
-
-#: The learning-interface keys (params ``env.*``) that shape one side's observation only: a model
-#: brings its own values of its side's keys into any world it plays in.
-SIDE_OBSERVATION_KEYS = {"wolves": ("last_sighting",), "targets": ()}
-#: Each side's own observation layout key (``flat`` or ``entities``) under ``env``.
-LAYOUT_KEY = {"wolves": "wolf_observation", "targets": "target_observation"}
-#: The capacities of entity observations (``env.entities``) a model may meet larger.
-ENTITY_CAPACITIES = ("max_wolves", "max_targets", "max_obstacles")
-
-
-def side_observation(params: dict, side: str) -> dict:
-    """``side``'s own observation keys as set in ``params`` (a model's training params; a key
-    they lack is off, as in params.yaml): :data:`SIDE_OBSERVATION_KEYS`, its layout
-    (``wolf_observation`` / ``target_observation``: its own, else ``observation``, else flat)
-    and, for an entity layout, ``entities`` (its capacities and range)."""
-    env = (params or {}).get("env") or {}
-    keys: dict[str, Any] = {key: bool(env.get(key, False)) for key in SIDE_OBSERVATION_KEYS[side]}
-    layout = env.get(LAYOUT_KEY[side]) or env.get("observation") or "flat"
-    keys[LAYOUT_KEY[side]] = layout
-    if layout == "entities":
-        keys["entities"] = dict(env.get("entities") or {})
-    return keys
-
-
-def bring_observation(params: dict, observation: dict) -> None:
-    """Sets a model's own observation keys (:func:`side_observation`) in the ``env`` section of
-    ``params``, the params it plays in. Entity capacities become the largest of the model's, the
-    world's and the world's team sizes: a set network reads any number of rows, and the world
-    may hold more agents than the model was trained with."""
-    env = params["env"]
-    for key, value in observation.items():
-        if key in LAYOUT_KEY.values():
-            # Set only where it changes the side's layout: an unchanged layout keeps the params
-            # as they were (a league swaps opponents mid-episode only while the world's params
-            # stay the same).
-            if value != (env.get(key) or env.get("observation") or "flat"):
-                env[key] = value
-            continue
-        if key != "entities":
-            env[key] = value
-            continue
-        mine = dict(env.get("entities") or {})
-        merged = {**mine, **value}
-        for cap in ENTITY_CAPACITIES:
-            if cap in mine and cap in value:
-                merged[cap] = max(int(mine[cap]), int(value[cap]))
-        world = params.get("world") or {}
-        for cap, count in (("max_wolves", world.get("wolves")), ("max_targets", world.get("targets"))):
-            if isinstance(count, int) and cap in merged:
-                merged[cap] = max(int(merged[cap]), count)
-        env["entities"] = merged
-
-
-def side_action_mode(params: dict, side: str) -> str:
-    """How ``side`` reads its actions on ``params``: its own mode, else ``env.action_mode``."""
-    env = params["env"]
-    return env.get(mode_key(side)) or env["action_mode"]
-
-
-def _law_side(name: str) -> str | None:
-    return next((side for side, laws in SCRIPTED_LAWS.items() if name in laws), None)
-
-
-def _is_native(where: str | Path) -> bool:
-    """Whether ``where`` holds a model of the native trainer (``wolfpack train``)."""
-    from wolfpack.models import native_model_folders
-
-    return bool(native_model_folders(where))
-
-
-def read_config(path: Path) -> dict:
-    """A model's ``config.yaml`` as a mapping (an empty file: {}); ValueError naming the file
-    when it is not YAML or not a mapping of keys."""
-    import yaml
-
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text file (a model's config.yaml is YAML)") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = getattr(e, "problem", None) or "unreadable"
-        raise ValueError(f"{path}: not valid YAML{at} ({problem}); a model's config.yaml is a mapping of keys (side, algo, network, params)") from None
-    if data is None:
-        return {}
-    if not isinstance(data, dict):
-        what = "a list" if isinstance(data, list) else f"the single value {_short_value(data)}"
-        raise ValueError(f"{path}: holds {what}, not a mapping of keys (side, algo, network, params)")
-    return data
-
-
-def _short_value(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def find_model(where: str | Path) -> tuple[Path, Path | None]:
-    """(the model's zip, its run's ``config.yaml`` or None) for a zip path (``.zip`` may be left
-    out) or a run folder (``DIR/model.zip``); a checkpoint's run folder is its zip's parent or
-    grandparent. FileNotFoundError naming the zip when there is none."""
-    path = Path(where)
-    zip_path = path / MODEL_FILE if path.is_dir() else (path if path.suffix == ".zip" else path.with_suffix(".zip"))
-    if not zip_path.is_file():
-        raise FileNotFoundError(zip_path)
-    config = next((d / CONFIG_FILE for d in (zip_path.parent, zip_path.parent.parent) if (d / CONFIG_FILE).is_file()), None)
-    return zip_path, config
-
-
-def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
-    """An SB3 model from its zip: with ``algo`` (``ppo``, ``sac``, ``a2c``, ``td3``) that class,
-    else the class whose policy the zip holds. ValueError naming the file when it is no SB3
-    model."""
-    from wolfpack._optional import require
-
-    sb3 = require("stable_baselines3", f"loading the SB3 model {zip_path}")
-    from stable_baselines3.common.save_util import load_from_zip_file
-
-    classes = {"ppo": sb3.PPO, "sac": sb3.SAC, "a2c": sb3.A2C, "td3": sb3.TD3}
-    try:
-        if algo is None:
-            data, _, _ = load_from_zip_file(zip_path, device=device, load_data=True)
-            policy = getattr(data.get("policy_class"), "__module__", "") if data else ""
-            algo = next((k for k in ("sac", "td3") if f".{k}." in f".{policy}."), "ppo")
-        if algo not in classes:
-            raise ValueError(f"unknown algorithm {algo!r} (one of {', '.join(classes)})")
-        return classes[algo].load(zip_path, device=device)
-    except Exception as e:  # a truncated or foreign zip: say which file
-        raise ValueError(f"model {zip_path}: cannot load it as an SB3 model ({type(e).__name__}: {e})") from None
-
-
-def run_label(zip_path: Path, config: dict) -> str:
-    """``<kind>:<run folder>`` as training/evaluate.py names models (``ppo:wolves_ft``,
-    ``imitation:wolves_bc``; a checkpoint adds its file: ``ppo:run/rollout_100000_steps``; a
-    member of a selfplay.py league: ``ppo:<league folder>/<member>``)."""
-    kind = "imitation" if "imitation_of" in config else str(config.get("algo", "sb3"))
-    league = (config.get("league_member") or {}).get("league")
-    if league and zip_path.name == MODEL_FILE:
-        # Every league names its members wolves_g02, targets_g01...: the league tells them apart.
-        return f"{kind}:{Path(league).name}/{zip_path.parent.name}"
-    if zip_path.name == MODEL_FILE:
-        return f"{kind}:{zip_path.parent.name}"
-    run = zip_path.parent if (zip_path.parent / CONFIG_FILE).is_file() else zip_path.parent.parent
-    return f"{kind}:{run.name}/{zip_path.stem}"
+from wolfpack.models import find_model, load_policy, load_sb3, native_model_folders, read_config, run_label, sample_sb3
+from wolfpack.sides import ACTION_MODES, SCRIPTED_LAWS, SIDES, bring_observation, law_side, mode_key, side_action_mode, side_observation
 
 
 class Opponent:
@@ -258,15 +99,13 @@ class Opponent:
         mode = action_mode
         if isinstance(policy, Opponent):
             raise TypeError("opponent: already an Opponent (give its policy, or use it as it is)")
-        if isinstance(policy, str) and _law_side(policy) is not None:
+        if isinstance(policy, str) and law_side(policy) is not None:
             self.kind, self.law = "scripted", policy
-            law_side = _law_side(policy)
-            if side is not None and side != law_side:
-                raise ValueError(f"{role} {policy!r} is a law of the {law_side}, not of the {side}")
-            side, label = law_side, policy
-        elif isinstance(policy, (str, Path)) and _is_native(policy):
-            from wolfpack.models import load_policy
-
+            its_side = law_side(policy)
+            if side is not None and side != its_side:
+                raise ValueError(f"{role} {policy!r} is a law of the {its_side}, not of the {side}")
+            side, label = its_side, policy
+        elif isinstance(policy, (str, Path)) and native_model_folders(policy):
             self.kind = "model"
             self.model = load_policy(policy, side)
             self.config = self.model.config
@@ -362,27 +201,10 @@ class Opponent:
 
     def _sampled(self, obs: np.ndarray) -> np.ndarray:
         """A draw from the policy's action distribution with this opponent's own generator
-        (torch's global one would tie the opponent to the learner's random stream): Gaussian
-        policies (PPO, A2C) mean + σ·ε, clipped to [-1, 1] as SB3 does; SAC's squashed
-        Gaussian tanh(mean + σ·ε)."""
+        (torch's global one would tie the opponent to the learner's random stream)."""
         if hasattr(self.model, "act") and hasattr(self.model, "obs_dim"):  # a wolfpack.models.SavedPolicy
             return self.model.act(obs, deterministic=False, rng=self._rng)
-        import torch
-
-        policy = getattr(self.model, "policy", self.model)
-        with torch.no_grad():
-            t = torch.as_tensor(obs, device=policy.device)
-            if hasattr(policy, "actor") and hasattr(policy.actor, "get_action_dist_params"):
-                mean, log_std, _ = policy.actor.get_action_dist_params(t)
-                mean, std = mean.cpu().numpy(), log_std.exp().cpu().numpy()
-                return np.tanh(mean + std * self._rng.standard_normal(mean.shape))
-            if not hasattr(policy, "get_distribution"):
-                raise ValueError(f"opponent {self.name!r}: cannot sample from a {type(policy).__name__} (use deterministic=True)")
-            dist = policy.get_distribution(t).distribution
-            if not (hasattr(dist, "mean") and hasattr(dist, "stddev")):
-                raise ValueError(f"opponent {self.name!r}: cannot sample from a {type(dist).__name__} distribution (use deterministic=True)")
-            mean, std = dist.mean.cpu().numpy(), dist.stddev.cpu().numpy()
-        return np.clip(mean + std * self._rng.standard_normal(mean.shape), -1.0, 1.0)
+        return sample_sb3(self.model, obs, self._rng, f"opponent {self.name!r}")
 
     def __repr__(self) -> str:
         sampled = "" if self.deterministic else ", sampled"

@@ -41,7 +41,8 @@ from typing import Any, Callable, Mapping, Sequence
 from wolfpack.batch import ObservationSizeError
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
 from wolfpack.generalisation import VARIATION_ORDER, check_variation, variation_params
-from wolfpack.opponents import SIDES, Opponent
+from wolfpack.opponents import Opponent
+from wolfpack.sides import SIDES
 from wolfpack.task import TASK_ORDER, check_task, outcome_changes, task_params
 
 #: The committed baselines: the analytic laws, and the learners' IQMs over training seeds.

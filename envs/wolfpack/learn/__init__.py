@@ -4,7 +4,7 @@ Written for the batch rather than on a general library because the learner, not 
 is what users wait for: SB3's PPO spends 87 % of its time in its own bookkeeping and updates
 around one policy per VecEnv slot, and has no centralised critic; here every side is one
 parameter-shared policy over preallocated rollout buffers filled straight from
-:class:`wolfpack.BatchEnv` (BENCHMARKS.md, "Learning"). Modules: :mod:`~wolfpack.learn.nets`
+:class:`wolfpack.BatchEnv` (BENCHMARKS.md, "Learning"). Modules: :mod:`~wolfpack.networks.mlp`
 (normaliser, actor, critic), :mod:`~wolfpack.learn.ppo` (one side's rollout and update),
 :mod:`~wolfpack.learn.trainer` (the loop, logs, checkpoints), :mod:`~wolfpack.learn.recipes`
 (the hyperparameters), :mod:`~wolfpack.learn.cli` (``wolfpack train``). Saved models load

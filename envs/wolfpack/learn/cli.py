@@ -269,7 +269,7 @@ def prepare_out(out: Path, resume: bool, identity: dict) -> bool:
     (:func:`without_progress`: it starts afresh there); with ``resume``, a run folder of the
     same configuration. Nothing is written before this passes. Returns whether the run goes on
     from a saved state (False: it starts afresh)."""
-    from wolfpack.opponents import CONFIG_FILE, read_config
+    from wolfpack.models import CONFIG_FILE, read_config
 
     config_path = out / CONFIG_FILE
     if resume:
@@ -298,7 +298,7 @@ def without_progress(out: Path) -> bool:
     (Ctrl-C during start-up, or a failure then): its ``config.yaml``, a ``progress.csv`` of at
     most its header, TensorBoard's event files, and nothing else. A rerun may start afresh
     there, with or without ``--resume``: no model, row or evaluation is lost."""
-    from wolfpack.opponents import CONFIG_FILE, read_config
+    from wolfpack.models import CONFIG_FILE, read_config
 
     if not (out / CONFIG_FILE).is_file():
         return False
@@ -405,7 +405,7 @@ def run_training(
         raise ValueError("wolfpack train needs torch: pip install 'wolfpack[train]'") from None
     from wolfpack.batch import resolve_params
     from wolfpack.learn.trainer import Trainer, TrainSpec
-    from wolfpack.opponents import SCRIPTED_LAWS
+    from wolfpack.sides import SCRIPTED_LAWS
 
     device = resolve_device(device)
     sides = ("wolves", "targets") if learners == "both" else (learners,)
@@ -465,7 +465,7 @@ def run_training(
         import yaml
 
         from wolfpack.learn.trainer import _plain, versions
-        from wolfpack.opponents import CONFIG_FILE
+        from wolfpack.models import CONFIG_FILE
 
         out.mkdir(parents=True, exist_ok=True)
         _clear_start_up(out)

@@ -40,7 +40,8 @@ import numpy as np
 from wolfpack.learn.meta import nash
 from wolfpack.learn.runs import RunError, check_player, prepare, threads_per_run, train
 from wolfpack.logs import write_json_atomic
-from wolfpack.opponents import SIDES, Opponent
+from wolfpack.opponents import Opponent
+from wolfpack.sides import SIDES
 from wolfpack.task import check_task, task_params
 
 #: The first seed of the meta-game's episodes (episode k is world META_SEED + k's first).
@@ -108,7 +109,7 @@ class Payoffs:
         key = f"{wolves} | {targets}"
         if key not in self.table:
             from wolfpack.evaluation import report, rollout
-            from wolfpack.opponents import bring_observation, mode_key
+            from wolfpack.sides import bring_observation, mode_key
 
             # Each member plays in its own observation and action mode (what it was trained
             # on); a law is its side's scripted law.

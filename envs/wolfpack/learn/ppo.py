@@ -22,8 +22,8 @@ import torch
 from torch import nn
 
 from wolfpack import _core
-from wolfpack.learn.nets import LOG_2PI, Critic, RunningNorm
-from wolfpack.learn.sets import EntityCritic, build_actor
+from wolfpack.networks.mlp import LOG_2PI, Critic, RunningNorm
+from wolfpack.networks.sets import EntityCritic, build_actor
 
 #: The wall rows that close every entity observation (the core's wall_rows block).
 WALL_ROWS = int(_core.ENTITY_WALLS)
@@ -101,7 +101,7 @@ class SideLearner:
                 raise ValueError(f"network: entities needs the {side}' entity observations (env.{'wolf' if side == 'wolves' else 'target'}_observation: entities)")
             self_dim, row_size, state_row = entity_shape
             width, pool, heads = int(recipe["entity_width"]), recipe["pool"], int(recipe["heads"])
-            # What a saved model needs to rebuild its actor (wolfpack.learn.sets.build_actor).
+            # What a saved model needs to rebuild its actor (wolfpack.networks.sets.build_actor).
             self.network = dict(
                 kind="entities",
                 self_dim=self_dim,

@@ -1,5 +1,6 @@
 """The trainer's hyperparameter recipes (``recipes.yaml`` beside this file): one per side and
-algorithm, ``default`` with the ``<side>.<algo>`` section on top, then a run's overrides."""
+algorithm, ``default`` with the ``entities`` section on top when the run uses the set network,
+then the ``<side>.<algo>`` section, then a run's overrides."""
 
 from __future__ import annotations
 
@@ -10,12 +11,11 @@ from typing import Any, Mapping
 
 import yaml
 
+from wolfpack.networks import POOLS
+
 RECIPES_PATH = Path(__file__).with_name("recipes.yaml")
 LEARNERS = ("wolves", "targets", "both")
 NETWORKS = ("mlp", "entities")
-#: The set network's poolings (wolfpack.learn.sets.POOLS; spelled here so that checking a
-#: recipe does not import torch).
-POOLS = ("attention", "mean_max")
 ALGOS = ("ippo", "mappo")
 # Recipe keys that are params overrides rather than hyperparameters: the learning side's reward
 # weights (params rewards.<side>.*) and the learning interface (params env.*).
@@ -31,7 +31,11 @@ def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> 
         raise ValueError(f"unknown algorithm {algo!r}: one of {', '.join(ALGOS)}")
     table = yaml.safe_load(RECIPES_PATH.read_text())
     r = dict(table["default"])
-    r.update((table.get(side) or {}).get(algo) or {})
+    side_recipe = (table.get(side) or {}).get(algo) or {}
+    # The set network's own defaults go under the side's recipe, which keeps what it tuned.
+    if (overrides or {}).get("network", side_recipe.get("network", r["network"])) == "entities":
+        r.update(table.get("entities") or {})
+    r.update(side_recipe)
     for section in PARAMS_SECTIONS:
         r[section] = dict(r.get(section) or {})
     for key, value in (overrides or {}).items():

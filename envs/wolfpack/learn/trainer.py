@@ -42,9 +42,10 @@ import wolfpack
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
-from wolfpack.models import POLICY_FILE, load_tensors
-from wolfpack.opponents import CONFIG_FILE, SIDES, Opponent, as_opponent, opponent_side
+from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_tensors
+from wolfpack.opponents import Opponent, as_opponent, opponent_side
 from wolfpack.scorecard import best_law, load_baselines
+from wolfpack.sides import SIDES
 
 TRAINER_FILE = "trainer.pt"
 BASE_COLUMNS = ("update", "wall_s", "agent_steps", "agent_steps_per_s", "rollout_s", "update_s", "episodes", "captured_rate", "collision_rate", "timeout_rate", "cornered_rate")

@@ -54,7 +54,7 @@ def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: i
     ``params``), as :func:`play`. A model plays in its own action mode and observation layout
     (as an opponent does); with a model on each side the targets' is called here, step by step,
     on their observations."""
-    from wolfpack.opponents import bring_observation, mode_key
+    from wolfpack.sides import bring_observation, mode_key
 
     sides, p = _drivers(wolves, targets, params)
     learned = {side: d for side, d in sides.items() if d is not None and d.learned}

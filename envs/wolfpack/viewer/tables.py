@@ -114,7 +114,7 @@ def scorecard_page(path: str | Path, policy: str | None = None, episodes: int = 
     ``episodes`` example episodes of the policy on that task (the scorecard's first seeds).
     ``policy`` is the policy's law or saved model (default: the scorecard's, when a law)."""
     from wolfpack import _core
-    from wolfpack.opponents import SCRIPTED_LAWS
+    from wolfpack.sides import SCRIPTED_LAWS
     from wolfpack.task import task_params
     from wolfpack.viewer.play import pairing_params, play_pairing
 

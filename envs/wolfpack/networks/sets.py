@@ -31,8 +31,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from wolfpack.learn.nets import Actor, GaussianActor, RunningNorm, mlp
-from wolfpack.learn.recipes import POOLS
+from wolfpack.networks import POOLS
+from wolfpack.networks.mlp import Actor, GaussianActor, RunningNorm, mlp
 
 #: Fields 0..MASKED-1 of a row (the mask and the type) pass through normalisation unchanged.
 MASKED = 5
@@ -304,7 +304,7 @@ class EntityActor(GaussianActor):
 
 class EntityCritic(nn.Module):
     """The value function over entity observations, with the same ``value(agent_inputs,
-    normed_state)`` interface as :class:`wolfpack.learn.nets.Critic`.
+    normed_state)`` interface as :class:`wolfpack.networks.mlp.Critic`.
 
     IPPO: a :class:`SetNet` over the agent's own entity observation. MAPPO: the world's entity
     state (``env.state: entities``: one row per agent of :data:`wolfpack.ENTITY_STATE_FIELDS`,
@@ -351,6 +351,6 @@ class EntityCritic(nn.Module):
 def build_actor(arch: dict) -> nn.Module:
     """The actor a saved model's ``network`` entry describes: ``kind: entities`` an
     :class:`EntityActor`, anything else (models saved before entity observations have no
-    ``kind``) the flat :class:`wolfpack.learn.nets.Actor`."""
+    ``kind``) the flat :class:`wolfpack.networks.mlp.Actor`."""
     args = {k: v for k, v in arch.items() if k != "kind"}
     return EntityActor(**args) if arch.get("kind") == "entities" else Actor(**args)
