@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from wolfpack.learn.cli import keep_freed_memory, prefer_passive_omp
+from wolfpack.learn.run import keep_freed_memory, prefer_passive_omp
 
 # As `wolfpack train` sets up its process, before torch loads: OpenMP threads that sleep while
 # they wait, and freed tensors kept in the heap (without it every minibatch faults its tensors'

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 from conftest import SHORT, layout_dict
-from wolfpack.cli import JSON_KEYS
+from wolfpack.cli.hunt import JSON_KEYS
 
 # --- bad input ----------------------------------------------------------------------------
 
@@ -148,14 +148,14 @@ def test_bvc_hunts_and_its_bad_parameters_are_named(cli):
 def test_main_maps_exceptions_to_one_line_and_a_status(monkeypatch, capsys, error, status, fragment):
     """A core bug (RuntimeError), bad input (ValueError), a file system error and Ctrl-C each end
     the program with one line and their own exit status, never a traceback."""
-    from wolfpack import cli as cli_module
+    from wolfpack.cli import hunt, main
 
     def fail(*args, **kwargs):
         raise error
 
-    monkeypatch.setattr(cli_module, "run_episodes", fail)
+    monkeypatch.setattr(hunt, "run_episodes", fail)
     with pytest.raises(SystemExit) as e:
-        cli_module.main(["hunt", "--episodes", "1"])
+        main(["hunt", "--episodes", "1"])
     assert e.value.code == status
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err == fragment + "\n"
@@ -500,16 +500,16 @@ def test_a_run_of_more_than_a_gigabyte_says_so_first(capsys):
     import argparse
 
     from wolfpack import _core
-    from wolfpack import cli as wcli
+    from wolfpack.cli import hunt
 
     def kept(episodes, plots, trajectories):
-        return wcli.kept_trajectories(argparse.Namespace(episodes=episodes, plots=plots, trajectories=trajectories))
+        return hunt.kept_trajectories(argparse.Namespace(episodes=episodes, plots=plots, trajectories=trajectories))
 
     # 20 by default, or --plots when larger; never more than the episodes.
     assert (kept(100, 20, None), kept(100, 25, None), kept(5, 20, None), kept(100, 25, 3), kept(7, 0, "all")) == (20, 25, 5, 3, 7)
 
     params = _core.default_params()
-    wcli._warn_if_large(argparse.Namespace(episodes=100_000, plots=20, trajectories="all"), params)
+    hunt._warn_if_large(argparse.Namespace(episodes=100_000, plots=20, trajectories="all"), params)
     assert "keeps 100,000 trajectory.npz files, about 8.0 GB" in capsys.readouterr().err
-    wcli._warn_if_large(argparse.Namespace(episodes=100_000, plots=20, trajectories=None), params)
+    hunt._warn_if_large(argparse.Namespace(episodes=100_000, plots=20, trajectories=None), params)
     assert capsys.readouterr().err == ""

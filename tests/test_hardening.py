@@ -22,6 +22,7 @@ from test_cli import assert_clean_failure
 from wolfpack import _core, cli, logs, outputs
 from wolfpack._checks import MAX_THREADS
 from wolfpack.config import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, check_tree, load_layout, load_params, parse_override
+from wolfpack.interrupt import CtrlC
 
 # --- numbers as YAML 1.2 reads them -----------------------------------------------------------
 
@@ -370,10 +371,10 @@ def _sigint_as_in_a_terminal():
     its own SIGINT handler. A test run started in the background has SIGINT ignored, and the
     CLI then leaves Ctrl-C alone on purpose; each test also starts with no Ctrl-C pending."""
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    cli._CtrlC.pending = False
+    CtrlC.pending = False
     yield
     signal.signal(signal.SIGINT, previous)
-    cli._CtrlC.pending = False
+    CtrlC.pending = False
 
 
 def _interrupt_inside_savez(monkeypatch, after: int):
@@ -492,7 +493,7 @@ def test_a_ctrl_c_that_an_extension_turns_into_an_import_error_still_stops_the_r
         calls["n"] += 1
         if calls["n"] == 2:  # the second episode's first plot
             try:
-                cli._CtrlC.handler(signal.SIGINT, None)  # what the signal does
+                CtrlC.handler(signal.SIGINT, None)  # what the signal does
             except KeyboardInterrupt:
                 raise ImportError("initialization failed") from None  # what the extension makes of it
         return real(arrays, path, **kwargs)

@@ -30,8 +30,8 @@ torch = pytest.importorskip("torch")
 
 import wolfpack  # noqa: E402
 from wolfpack import cli  # noqa: E402
-from wolfpack.learn import cli as learn_cli  # noqa: E402
 from wolfpack.learn import recipe, train  # noqa: E402
+from wolfpack.learn import run as learn_run  # noqa: E402
 from wolfpack.models import load_tensors  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -205,7 +205,7 @@ def test_training_interrupted_anywhere_leaves_a_folder_a_rerun_reuses_or_resume_
     assert proc.returncode == 130 and stdout == "", stderr
     lines = stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"wolfpack: interrupted; {out} holds "), stderr
-    if learn_cli.without_progress(out):
+    if learn_run.without_progress(out):
         assert "no progress yet" in lines[0]
         rows_before = 0
     else:  # saved where it stopped (0 agent-steps when no update had finished)

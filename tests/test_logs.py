@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import synthetic_result
 from wolfpack import _core, logs, plots
-from wolfpack.cli import RunWriter
+from wolfpack.cli.run_files import RunWriter
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 PARAMS = _core.default_params()

@@ -14,8 +14,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from wolfpack.learn import cli as learn_cli  # noqa: E402
 from wolfpack.learn import recipes, train, trainer  # noqa: E402
+from wolfpack.learn import run as learn_run  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"num_envs": 4, "n_steps": 16, "epochs": 1, "minibatch_size": 32, "hidden": [8]}
@@ -99,14 +99,14 @@ def test_a_run_stopped_during_start_up_is_reused_by_a_rerun_or_resume(tmp_path, 
 def test_a_folder_with_progress_or_foreign_files_is_never_reused(tmp_path):
     out = tmp_path / "run"
     tiny(out)
-    assert not learn_cli.without_progress(out)  # models and rows: --resume or another folder
+    assert not learn_run.without_progress(out)  # models and rows: --resume or another folder
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "config.yaml").write_text("trainer: something else\n")
-    assert not learn_cli.without_progress(mine)
+    assert not learn_run.without_progress(mine)
     (mine / "config.yaml").write_text("trainer: wolfpack train\n")
     (mine / "notes.txt").write_text("mine")
-    assert not learn_cli.without_progress(mine)
+    assert not learn_run.without_progress(mine)
     with pytest.raises(ValueError, match="not a new or empty folder"):
         tiny(mine)
     assert (mine / "notes.txt").read_text() == "mine"

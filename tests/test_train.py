@@ -462,7 +462,7 @@ def test_every_pool_member_is_checked_before_anything_is_written(both_run, cli, 
 def test_a_training_run_asks_torch_openmp_to_wait_passively_unless_the_user_chose():
     # In a fresh interpreter (torch not yet imported): the run sets the policy before torch
     # loads, and leaves a user's own choice alone.
-    code = "import os, sys\nfrom wolfpack.learn.cli import prefer_passive_omp\nprefer_passive_omp()\nprint(os.environ.get('OMP_WAIT_POLICY'))\n"
+    code = "import os, sys\nfrom wolfpack.learn.run import prefer_passive_omp\nprefer_passive_omp()\nprint(os.environ.get('OMP_WAIT_POLICY'))\n"
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
     fresh = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert fresh.stdout.strip() == "PASSIVE"
@@ -478,7 +478,7 @@ def test_a_training_run_keeps_freed_minibatch_memory_in_the_heap_unless_the_user
         pytest.skip("mallopt is glibc's")
     code = (
         "import ctypes, sys\n"
-        "from wolfpack.learn.cli import keep_freed_memory\n"
+        "from wolfpack.learn.run import keep_freed_memory\n"
         "class Info(ctypes.Structure):\n"
         "    _fields_ = [(n, ctypes.c_size_t) for n in ('arena', 'ordblks', 'smblks', 'hblks', 'hblkhd', 'usmblks', 'fsmblks', 'uordblks', 'fordblks', 'keepcost')]\n"
         "libc = ctypes.CDLL(None)\n"

@@ -33,15 +33,15 @@ from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step, resolve_params
 from wolfpack.config import parse_override
 from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, TRAIN_SEED_BASE, Policy, report, rollout, wilson_interval  # noqa: F401  (re-exported for the scripts)
-from wolfpack.learn.cli import keep_freed_memory, prefer_passive_omp
-from wolfpack.models import SavedPolicy, load_policy, native_model_folders
-from wolfpack.opponents import CONFIG_FILE, MODEL_FILE, SCRIPTED_LAWS, find_model, mode_key, run_label, side_action_mode, side_observation  # noqa: F401 (MODEL_FILE: the scripts take it from here)
+from wolfpack.learn.run import keep_freed_memory, prefer_passive_omp
+from wolfpack.models import CONFIG_FILE, MODEL_FILE, SavedPolicy, find_model, load_policy, native_model_folders, run_label  # noqa: F401 (MODEL_FILE: the scripts take it from here)
+from wolfpack.sides import SCRIPTED_LAWS, mode_key, side_action_mode, side_observation
 
 # The scripts run torch beside the batch's threads: its OpenMP workers should sleep while they
-# wait, not spin (the reason and the measurements: wolfpack.learn.cli.prefer_passive_omp). This
+# wait, not spin (the reason and the measurements: wolfpack.learn.run.prefer_passive_omp). This
 # module is imported before torch by every script; a user's own OMP_WAIT_POLICY wins. Freed
 # tensors stay in the heap for the next minibatch, as in `wolfpack train` (the reason:
-# wolfpack.learn.cli.keep_freed_memory), so that both trainers are measured alike.
+# wolfpack.learn.run.keep_freed_memory), so that both trainers are measured alike.
 prefer_passive_omp()
 keep_freed_memory()
 

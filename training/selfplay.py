@@ -258,7 +258,7 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     """Trains generation ``k`` (``side``) with ``wolfpack train``'s trainer and freezes it as a
     member; None when no update finished (interrupted, or no time left)."""
     import torch
-    from wolfpack.learn.cli import default_threads
+    from wolfpack.learn.run import default_threads
     from wolfpack.learn.trainer import Trainer, TrainSpec
 
     pool = [Member(m, out) for m in members_of(league, OTHER[side])]

@@ -8,6 +8,7 @@ names the argument.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,14 @@ SEED_END = 2**64
 #: The most worker threads a run may ask for: the core's bound, checked here first so that a
 #: wrong type is a TypeError.
 MAX_THREADS: int = _core.MAX_THREADS
+
+
+def usable_cores() -> int:
+    """Cores this process may use (its CPU affinity where the platform has one): what the core's
+    thread pool and the trainer use by default."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def is_int(value: Any) -> bool:

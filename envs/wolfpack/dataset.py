@@ -34,6 +34,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
+from wolfpack._optional import require
 from wolfpack.batch import OUTCOMES, BatchEnv
 from wolfpack.opponents import Opponent
 from wolfpack.outputs import Outputs
@@ -196,7 +197,6 @@ def minari_id(task: str, policy_name: str) -> str:
 
 def write_minari(arrays: dict[str, np.ndarray], task: str, out: Path, dataset_id: str, meta: dict):
     """A Minari dataset of the learning target's view (one target) under ``out``."""
-    from wolfpack._optional import require
 
     require("minari", "wolfpack dataset in Minari's format")
     import minari

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from wolfpack._optional import require
 from wolfpack.sides import SIDES, side_action_mode
 
 #: Where a run folder keeps its model and its configuration (training/).
@@ -83,7 +84,6 @@ def load_sb3(zip_path: Path, algo: str | None = None, device: str = "cpu"):
     """An SB3 model from its zip: with ``algo`` (``ppo``, ``sac``, ``a2c``, ``td3``) that class,
     else the class whose policy the zip holds. ValueError naming the file when it is no SB3
     model."""
-    from wolfpack._optional import require
 
     sb3 = require("stable_baselines3", f"loading the SB3 model {zip_path}")
     from stable_baselines3.common.save_util import load_from_zip_file
@@ -291,7 +291,6 @@ class NativePolicy(SavedPolicy):
     """A model of the native trainer (``policy.pt`` + ``config.yaml``), run on the CPU."""
 
     def __init__(self, folder: Path, config: dict) -> None:
-        from wolfpack._optional import require
 
         require("torch", f"loading the model {folder}")
         from wolfpack.networks.sets import build_actor  # torch, only where a native model is loaded

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-import wolfpack
+from wolfpack.parallel_env import parallel_env
 
 #: World seeds of env runner k's copy v: ``SEED_BASE·(seed + 1) + 1000·k + v``.
 SEED_BASE = 1_000_000
@@ -27,7 +27,7 @@ def env_creator(env_config: Mapping[str, Any]):
     worker = int(getattr(env_config, "worker_index", 0))
     vector = int(getattr(env_config, "vector_index", 0))
     seed = SEED_BASE * (int(env_config.get("seed", 0)) + 1) + 1000 * worker + vector
-    env = wolfpack.parallel_env(env_config.get("params"), learners=env_config.get("learners", "all"), shared_space=bool(env_config.get("shared_space", False)), seed=seed)
+    env = parallel_env(env_config.get("params"), learners=env_config.get("learners", "all"), shared_space=bool(env_config.get("shared_space", False)), seed=seed)
     return ParallelPettingZooEnv(env)
 
 

@@ -4,16 +4,18 @@ Written for the batch rather than on a general library because the learner, not 
 is what users wait for: SB3's PPO spends 87 % of its time in its own bookkeeping and updates
 around one policy per VecEnv slot, and has no centralised critic; here every side is one
 parameter-shared policy over preallocated rollout buffers filled straight from
-:class:`wolfpack.BatchEnv` (BENCHMARKS.md, "Learning"). Modules: :mod:`~wolfpack.networks.mlp`
-(normaliser, actor, critic), :mod:`~wolfpack.learn.ppo` (one side's rollout and update),
-:mod:`~wolfpack.learn.trainer` (the loop, logs, checkpoints), :mod:`~wolfpack.learn.recipes`
-(the hyperparameters), :mod:`~wolfpack.learn.cli` (``wolfpack train``). Saved models load
-with :func:`wolfpack.load_policy`.
+:class:`wolfpack.BatchEnv` (BENCHMARKS.md, "Learning"). Modules: :mod:`~wolfpack.learn.ppo`
+(one side's rollout and update), :mod:`~wolfpack.learn.trainer` (the loop, logs, checkpoints),
+:mod:`~wolfpack.learn.recipes` (the hyperparameters), :mod:`~wolfpack.learn.run` (a run as
+``wolfpack train`` starts it). The networks (normaliser, actor, critic, set networks) are
+:mod:`wolfpack.networks`, which playing a saved model needs too; saved models load with
+:func:`wolfpack.load_policy`.
 
 Importing this package does not import torch; :func:`train` does.
 """
 
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe
+from wolfpack.learn.run import run_training
 
 
 def train(
@@ -45,8 +47,6 @@ def train(
     list of them (a pool, one drawn per rollout, the first evaluated); ``task`` a task's name or
     a list of them (``"all"``: the suite; several: one model over them, multi-task), ``vary``
     ``{key: (lo, hi)}`` as ``--vary`` takes them."""
-    from wolfpack.learn.cli import run_training
-
     return run_training(
         learners=learners,
         algo=algo,

@@ -37,11 +37,13 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from wolfpack.evaluation import report, rollout
 from wolfpack.learn.meta import nash
 from wolfpack.learn.runs import RunError, check_player, prepare, threads_per_run, train
 from wolfpack.logs import write_json_atomic
+from wolfpack.models import load_policy
 from wolfpack.opponents import Opponent
-from wolfpack.sides import SIDES
+from wolfpack.sides import SIDES, bring_observation, mode_key
 from wolfpack.task import check_task, task_params
 
 #: The first seed of the meta-game's episodes (episode k is world META_SEED + k's first).
@@ -100,17 +102,12 @@ class Payoffs:
 
     def _model(self, member: str, side: str) -> Callable:
         if member not in self._models:
-            from wolfpack.models import load_policy
-
             self._models[member] = load_policy(member, side)
         return self._models[member]
 
     def rate(self, wolves: str, targets: str) -> float:
         key = f"{wolves} | {targets}"
         if key not in self.table:
-            from wolfpack.evaluation import report, rollout
-            from wolfpack.sides import bring_observation, mode_key
-
             # Each member plays in its own observation and action mode (what it was trained
             # on); a law is its side's scripted law.
             params = task_params(self.task)

@@ -15,12 +15,11 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import Sequence
 
+from wolfpack.learn.run import default_threads
 from wolfpack.logs import write_json_atomic
-
-if TYPE_CHECKING:
-    from wolfpack.opponents import Opponent
+from wolfpack.opponents import Opponent
 
 PLAN_FILE = "plan.json"
 
@@ -32,7 +31,6 @@ class RunError(ValueError):
 def check_player(policy: str, side: str, error: type[RunError] = RunError) -> Opponent:
     """``policy`` (a law's name or a saved model) as the driver of ``side``; ``error`` in one
     line naming it when it is neither, or plays the other side."""
-    from wolfpack.opponents import Opponent
 
     try:
         driver = Opponent(policy)
@@ -45,7 +43,6 @@ def check_player(policy: str, side: str, error: type[RunError] = RunError) -> Op
 
 def threads_per_run(jobs: int) -> int:
     """Each of ``jobs`` training runs at once gets its share of the cores (at least one)."""
-    from wolfpack.learn.cli import default_threads
 
     return max(1, default_threads()[0] // jobs)
 

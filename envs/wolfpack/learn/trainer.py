@@ -38,7 +38,7 @@ import numpy as np
 import torch
 import yaml
 
-import wolfpack
+from wolfpack import _core
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
@@ -107,7 +107,7 @@ class TrainSpec:
 
 def versions() -> dict:
     return {
-        "wolfpack": wolfpack.__version__,
+        "wolfpack": _core.__version__,
         "torch": str(torch.__version__),
         "numpy": np.__version__,
         "python": sys.version.split()[0],

@@ -6,7 +6,7 @@
 - :mod:`~wolfpack.viewer.page`: the page (``page.html``, ``page.js`` and ``page.css``, inlined);
 - :mod:`~wolfpack.viewer.sources`: the runs and ``trajectory.npz`` files it reads, checked;
 - :mod:`~wolfpack.viewer.play`: policies played on the same episodes (``--compare``);
-- :mod:`~wolfpack.viewer.cli`: the ``wolfpack view`` command.
+- :mod:`~wolfpack.cli.view`: the ``wolfpack view`` command.
 
 The page's script interface is ``window.wolfpack`` (read-only): ``state(step, pane=0)`` →
 ``{step, wolves: [[x, y, heading], …], targets: [[x, y, heading], …], wolf_modes: [name, …],

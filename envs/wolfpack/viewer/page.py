@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Sequence
 
-from wolfpack import _core
+from wolfpack import _core, logs, render
 from wolfpack.viewer import encode
 
 #: The page's ``<meta name="generator">``: how ``--force`` knows a file is a page it wrote.
@@ -33,7 +33,7 @@ def colours() -> dict[str, Any]:
     draw them) for agents and obstacles, the plots' for outcomes."""
     from matplotlib.colors import to_hex
 
-    from wolfpack import plots, render
+    from wolfpack import plots  # matplotlib
 
     return {
         "wolves": [list(c) for c in render.WOLF_COLOURS],
@@ -94,7 +94,6 @@ def is_page(path: Path) -> bool:
 def write_page(path: Path, data: dict[str, Any], title: str) -> int:
     """Writes the page under a temporary name, then renames it (never half a page under the
     final name); returns its size in bytes."""
-    from wolfpack import logs
 
     text = render_page(data, title).encode("utf-8")
     with logs.atomic_path(Path(path), keep_suffix=True) as tmp:

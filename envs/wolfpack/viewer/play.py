@@ -15,6 +15,8 @@ import numpy as np
 from wolfpack import _core
 from wolfpack.batch import OUTCOMES, BatchEnv, first_cornered_step
 from wolfpack.logs import _vertices_table, mode_arrays
+from wolfpack.scorecard import as_policy
+from wolfpack.sides import bring_observation, mode_key
 
 
 def _kind(o: dict) -> str:
@@ -30,7 +32,6 @@ def play(policy: Any, params: dict, episodes: int, seed: int, threads: int | Non
 
 def _drivers(wolves: Any, targets: Any, params: dict) -> tuple[dict, dict]:
     """Each side's driver (None: the law in ``params``) and the params with the laws set."""
-    from wolfpack.scorecard import as_policy
 
     p = json.loads(json.dumps(params))
     sides = {side: (as_policy(who, side) if who is not None else None) for side, who in (("wolves", wolves), ("targets", targets))}
@@ -54,7 +55,6 @@ def play_pairing(wolves: Any, targets: Any, params: dict, episodes: int, seed: i
     ``params``), as :func:`play`. A model plays in its own action mode and observation layout
     (as an opponent does); with a model on each side the targets' is called here, step by step,
     on their observations."""
-    from wolfpack.sides import bring_observation, mode_key
 
     sides, p = _drivers(wolves, targets, params)
     learned = {side: d for side, d in sides.items() if d is not None and d.learned}

@@ -10,7 +10,12 @@ import json
 from pathlib import Path
 from typing import Any
 
+from wolfpack import _core
+from wolfpack.scorecard import as_policy
+from wolfpack.sides import SCRIPTED_LAWS
+from wolfpack.task import task_params
 from wolfpack.viewer.encode import encode_episode
+from wolfpack.viewer.play import pairing_params, play_pairing
 
 
 def _read_json(path: str | Path, name: str, keys: tuple[str, ...]) -> tuple[dict, Path]:
@@ -50,8 +55,6 @@ def _pct(x: float | None) -> str:
 def matrix_page(path: str | Path, episodes: int = 1, threads: int | None = None) -> dict[str, Any]:
     """The cross-play matrix as a table (wolves × targets, capture rates) whose cells open
     ``episodes`` example episodes of that pairing (the matrix's first seeds)."""
-    from wolfpack import _core
-    from wolfpack.viewer.play import pairing_params, play_pairing
 
     doc, file = _read_json(path, "matrix.json", ("wolves", "targets", "cells", "params", "seed"))
     params = _core.validate_params(doc["params"], resolve=True)
@@ -61,7 +64,6 @@ def matrix_page(path: str | Path, episodes: int = 1, threads: int | None = None)
 
     def driver(spec: str, side: str):
         """Each model is loaded once, however many cells it plays in."""
-        from wolfpack.scorecard import as_policy
 
         if (spec, side) not in loaded:
             loaded[spec, side] = as_policy(_resolve(spec, models, file.parent), side)
@@ -113,10 +115,6 @@ def scorecard_page(path: str | Path, policy: str | None = None, episodes: int = 
     """A scorecard as a table (a row per task: score, interval, rank) whose rows open
     ``episodes`` example episodes of the policy on that task (the scorecard's first seeds).
     ``policy`` is the policy's law or saved model (default: the scorecard's, when a law)."""
-    from wolfpack import _core
-    from wolfpack.sides import SCRIPTED_LAWS
-    from wolfpack.task import task_params
-    from wolfpack.viewer.play import pairing_params, play_pairing
 
     card, file = _read_json(path, "scorecard.json", ("policy", "side", "tasks", "first_seed"))
     side = card["side"]
@@ -124,7 +122,6 @@ def scorecard_page(path: str | Path, policy: str | None = None, episodes: int = 
         if card["policy"] not in SCRIPTED_LAWS.get(side, ()):
             raise ValueError(f"{file}: scores the model {card['policy']!r}; name its folder with --policy to play its episodes")
         policy = card["policy"]
-    from wolfpack.scorecard import as_policy
 
     driver = as_policy(policy, side)
     seed = int(card["first_seed"])

@@ -1,5 +1,4 @@
-"""``wolfpack view``: runs, episodes or policies as one self-contained HTML page (registered by
-:mod:`wolfpack.cli`)."""
+"""``wolfpack view``: runs, episodes or policies as one self-contained HTML page."""
 
 from __future__ import annotations
 
@@ -8,6 +7,18 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 from typing import Sequence
+
+from wolfpack import _core, config
+from wolfpack._checks import MAX_THREADS, check_seed
+from wolfpack.cli.args import PROG, folder, int_at_least
+from wolfpack.opponents import Opponent
+from wolfpack.scorecard import as_policy
+from wolfpack.task import TASK_ORDER, task_params
+from wolfpack.viewer import tables as pages
+from wolfpack.viewer.encode import encode_episode
+from wolfpack.viewer.page import is_page, page_data, write_page
+from wolfpack.viewer.play import pairing_params, play
+from wolfpack.viewer.sources import collect, scenario_key
 
 VIEW_DESCRIPTION = """\
 Write one self-contained HTML page that plays hunts in the browser: the data, the script and
@@ -65,25 +76,22 @@ examples:
 COMPARE_EPISODES = 5
 #: Past this many episodes in one page, say so (the page grows by ~50 KB an episode).
 LARGE_PAGE_EPISODES = 100
-PROG = "wolfpack"
 
 
-def add_parser(sub, parser_class) -> argparse.ArgumentParser:
+def add_parser(sub) -> argparse.ArgumentParser:
     """Registers ``view`` on the ``wolfpack`` command's subparsers."""
-    from wolfpack.cli import MAX_THREADS, _folder, _int_at_least
-    from wolfpack.task import TASK_ORDER
 
     p = sub.add_parser(
         "view", help="write a self-contained HTML page that plays hunts in the browser", description=VIEW_DESCRIPTION, epilog=VIEW_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     p.add_argument("inputs", metavar="RUN_OR_NPZ", nargs="*", help="run folders of 'wolfpack hunt --out', episode folders or trajectory.npz files")
-    p.add_argument("--out", metavar="FILE.html", type=_folder, required=True, help="the page to write (a new file, unless --force)")
+    p.add_argument("--out", metavar="FILE.html", type=folder, required=True, help="the page to write (a new file, unless --force)")
     p.add_argument("--force", action="store_true", help="replace FILE.html if it is a page 'wolfpack view' wrote (any other file is refused)")
     p.add_argument(
         "--compare", metavar="POLICY", nargs="*", default=None, help="with policies: play them on the same episodes, side by side; with none: lay the given runs side by side, episode by episode"
     )
     p.add_argument(
-        "--episodes", metavar="K", type=_int_at_least(1), default=None, help=f"the first K episodes of each run (default: all), or K episodes played by --compare (default: {COMPARE_EPISODES})"
+        "--episodes", metavar="K", type=int_at_least(1), default=None, help=f"the first K episodes of each run (default: all), or K episodes played by --compare (default: {COMPARE_EPISODES})"
     )
     p.add_argument("--title", metavar="TEXT", default=None, help="the page's title")
     tables = p.add_argument_group("pages of tables whose cells open episodes")
@@ -96,8 +104,8 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     scenario.add_argument("--task", metavar="NAME", choices=TASK_ORDER, help=f"a task of the benchmark suite: {', '.join(TASK_ORDER)}")
     played.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides", help="override a parameter by its dotted key; repeatable")
     played.add_argument("--targets", metavar="LAW", help="the targets' law (sets policies.targets)")
-    played.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="episode k is world seed S + k (default: 0)")
-    played.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads")
+    played.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="episode k is world seed S + k (default: 0)")
+    played.add_argument("--threads", metavar="T", type=int_at_least(1, MAX_THREADS), default=None, help="worker threads")
     p.set_defaults(func=cmd_view)
     return p
 
@@ -105,7 +113,6 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
 def check_out(out: Path, force: bool) -> None:
     """Refuses an output path that is a folder, or that exists without ``force``, or that is a
     file ``wolfpack view`` did not write (``--force`` replaces only its own pages)."""
-    from wolfpack.viewer.page import is_page
 
     if out.is_dir():
         raise ValueError(f"--out {out}: is a folder; name the page to write (FILE.html)")
@@ -123,8 +130,6 @@ def _name(path: str) -> str:
 def recorded_side_by_side(inputs: Sequence[str], episodes: int | None) -> tuple[list[dict], list[dict], list[str]]:
     """Runs laid side by side: one pane per input, one item per seed they all hold; a
     ValueError when two inputs hold the same seed from different scenarios or share no seed."""
-    from wolfpack.viewer.encode import encode_episode
-    from wolfpack.viewer.sources import collect, scenario_key
 
     if len(inputs) < 2:
         raise ValueError("--compare without policies lays runs side by side: name two or more runs (or give --compare the policies to play)")
@@ -155,13 +160,6 @@ def recorded_side_by_side(inputs: Sequence[str], episodes: int | None) -> tuple[
 
 def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:
     """The policies of ``--compare`` played on the same episodes."""
-    from wolfpack import _core, config
-    from wolfpack._checks import check_seed
-    from wolfpack.opponents import Opponent
-    from wolfpack.scorecard import as_policy
-    from wolfpack.task import task_params
-    from wolfpack.viewer.encode import encode_episode
-    from wolfpack.viewer.play import pairing_params, play
 
     overrides = dict(config.parse_override(text) for text in args.overrides)
     if args.targets:
@@ -184,9 +182,6 @@ def played_side_by_side(args) -> tuple[list[dict], list[dict], list[str], str]:
 
 
 def cmd_view(args: argparse.Namespace, argv: Sequence[str]) -> None:
-    from wolfpack.viewer.encode import encode_episode
-    from wolfpack.viewer.page import page_data, write_page
-    from wolfpack.viewer.sources import collect
 
     out = Path(args.out)
     check_out(out, args.force)
@@ -199,7 +194,6 @@ def cmd_view(args: argparse.Namespace, argv: Sequence[str]) -> None:
             raise ValueError(
                 f"{tables[0]}: a page of its own; not with {', '.join((tables[1:] or []) + (['runs'] if args.inputs else []) + (['--compare'] if args.compare is not None else []) + scenario_options)}"
             )
-        from wolfpack.viewer import tables as pages
 
         made = pages.matrix_page(args.matrix, args.episodes or 1, args.threads) if args.matrix else pages.scorecard_page(args.scorecard, args.policy, args.episodes or 1, args.threads)
         data = page_data(made["episodes"], made["items"], None, made["subtitle"], made["table"])

@@ -1,4 +1,4 @@
-"""``wolfpack league``: population training of both sides (registered by :mod:`wolfpack.cli`; the
+"""``wolfpack league``: population training of both sides (the
 work is :mod:`wolfpack.learn.league`)."""
 
 from __future__ import annotations
@@ -8,6 +8,8 @@ import json
 import sys
 from typing import Sequence
 
+from wolfpack.cli.args import folder, int_at_least
+from wolfpack.learn.league import league
 from wolfpack.task import TASK_ORDER
 
 LEAGUE_DESCRIPTION = """\
@@ -39,9 +41,8 @@ examples:
   wolfpack league --out runs/league --resume"""
 
 
-def add_parser(sub, parser_class) -> argparse.ArgumentParser:
+def add_parser(sub) -> argparse.ArgumentParser:
     """Registers ``league`` on the ``wolfpack`` command's subparsers."""
-    from wolfpack.cli import _folder, _int_at_least
 
     p = sub.add_parser(
         "league",
@@ -50,15 +51,15 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
         epilog=LEAGUE_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--out", metavar="DIR", type=_folder, required=True, help="the league's folder (new or empty, or with --resume an unfinished league)")
-    p.add_argument("--iterations", metavar="N", type=_int_at_least(1), default=5, help="iterations: a best response per side each (default 5)")
-    p.add_argument("--budget", metavar="N", type=_int_at_least(1), default=2_000_000, help="agent-steps of each training run (default 2000000)")
+    p.add_argument("--out", metavar="DIR", type=folder, required=True, help="the league's folder (new or empty, or with --resume an unfinished league)")
+    p.add_argument("--iterations", metavar="N", type=int_at_least(1), default=5, help="iterations: a best response per side each (default 5)")
+    p.add_argument("--budget", metavar="N", type=int_at_least(1), default=2_000_000, help="agent-steps of each training run (default 2000000)")
     p.add_argument("--task", choices=TASK_ORDER, default="hunt-v1", help="the task played (default hunt-v1)")
-    p.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=100, help="episodes per pairing of the payoff matrix, and of each run's evaluations (default 100)")
-    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="seed of the league: each run's is 1000*S + its iteration (default 0)")
+    p.add_argument("--episodes", metavar="K", type=int_at_least(1), default=100, help="episodes per pairing of the payoff matrix, and of each run's evaluations (default 100)")
+    p.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="seed of the league: each run's is 1000*S + its iteration (default 0)")
     p.add_argument("--wolves", metavar="POLICY", nargs="+", default=None, help="the wolves' first members: laws or saved wolf models (default: the task's wolf law)")
     p.add_argument("--targets", metavar="POLICY", nargs="+", default=None, help="the targets' first members: laws or saved target models (default: the task's target law)")
-    p.add_argument("--jobs", metavar="J", type=_int_at_least(1, 2), default=1, help="1, or 2: both sides' runs of a step at once (default 1)")
+    p.add_argument("--jobs", metavar="J", type=int_at_least(1, 2), default=1, help="1, or 2: both sides' runs of a step at once (default 1)")
     p.add_argument("--resume", action="store_true", help="continue the unfinished league in --out")
     p.add_argument("--json", action="store_true", help="print league.json on stdout instead of the table")
     p.set_defaults(func=cmd_league)
@@ -67,8 +68,6 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
 
 def cmd_league(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from tqdm import tqdm
-
-    from wolfpack.learn.league import league
 
     with tqdm(total=args.iterations, unit="iteration", file=sys.stderr, disable=not sys.stderr.isatty(), desc="league") as bar:
 

@@ -1,4 +1,4 @@
-"""``wolfpack benchmark``: a policy's scorecard over every task (registered by :mod:`wolfpack.cli`)."""
+"""``wolfpack benchmark``: a policy's scorecard over every task."""
 
 from __future__ import annotations
 
@@ -9,6 +9,12 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
+from wolfpack import config, scorecard
+from wolfpack._checks import MAX_THREADS
+from wolfpack.cli.args import folder, int_at_least
+from wolfpack.evaluation import HELD_OUT_SEED
+from wolfpack.generalisation import VARIATION_ORDER, check_variation
+from wolfpack.outputs import Outputs
 from wolfpack.task import TASK_ORDER, check_task
 
 BENCHMARK_DESCRIPTION = """\
@@ -47,9 +53,8 @@ examples:
   wolfpack benchmark --targets results/models/escape_ppo --tasks hunt-v1 fast-target-v1 --episodes 100"""
 
 
-def add_parser(sub, parser_class) -> argparse.ArgumentParser:
+def add_parser(sub) -> argparse.ArgumentParser:
     """Registers ``benchmark`` on the ``wolfpack`` command's subparsers."""
-    from wolfpack.cli import MAX_THREADS, _folder, _int_at_least
 
     p = sub.add_parser(
         "benchmark",
@@ -68,8 +73,8 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
         help="tasks: the task suite (default); generalisation: variations of hunt-v1 no task file holds (other team sizes, target counts, obstacle counts, arena, target speeds), beside the laws played on the same episodes",
     )
     p.add_argument("--tasks", metavar="NAME", nargs="+", default=None, help=f"only these tasks (default: every task: {', '.join(TASK_ORDER)}; with --track generalisation, its variations)")
-    p.add_argument("--episodes", metavar="K", type=_int_at_least(1), default=200, help="episodes per task (default: 200, the baselines' count: ranks need it)")
-    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=None, help="first episode seed (default: 500000, the held-out episodes: ranks need it)")
+    p.add_argument("--episodes", metavar="K", type=int_at_least(1), default=200, help="episodes per task (default: 200, the baselines' count: ranks need it)")
+    p.add_argument("--seed", metavar="S", type=int_at_least(0), default=None, help="first episode seed (default: 500000, the held-out episodes: ranks need it)")
     p.add_argument(
         "--set",
         metavar="KEY=VALUE",
@@ -84,8 +89,8 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
         default=None,
         help="add the policy's exploitability to the scorecard: DIR is a finished 'wolfpack exploit' run of the same policy (its exploit.json; 'wolfpack exploit --help')",
     )
-    p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
-    p.add_argument("--out", metavar="DIR", type=_folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty, or --force)")
+    p.add_argument("--threads", metavar="T", type=int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
+    p.add_argument("--out", metavar="DIR", type=folder, default=None, help="write scorecard.json, scorecard.md and scorecard.png into DIR (new or empty, or --force)")
     p.add_argument("--force", action="store_true", help="with --out DIR holding an earlier scorecard: replace its files once the new one is written (a DIR holding other files is refused)")
     p.add_argument("--json", action="store_true", help="print the scorecard as one JSON object instead of the table")
     p.set_defaults(func=cmd_benchmark)
@@ -95,16 +100,10 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
 def cmd_benchmark(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from tqdm import tqdm
 
-    from wolfpack import config, scorecard
-    from wolfpack.evaluation import HELD_OUT_SEED
-    from wolfpack.outputs import Outputs
-
     side = "wolves" if args.wolves is not None else "targets"
     policy = args.wolves if side == "wolves" else args.targets
     seed = HELD_OUT_SEED if args.seed is None else args.seed
     if args.track == "generalisation":
-        from wolfpack.generalisation import VARIATION_ORDER, check_variation
-
         tasks = [check_variation(t) for t in args.tasks] if args.tasks else list(VARIATION_ORDER)
     else:
         tasks = [check_task(t) for t in args.tasks] if args.tasks else list(TASK_ORDER)

@@ -1,4 +1,4 @@
-"""``wolfpack dataset``: offline datasets of expert play (registered by :mod:`wolfpack.cli`)."""
+"""``wolfpack dataset``: offline datasets of expert play."""
 
 from __future__ import annotations
 
@@ -8,6 +8,9 @@ import shlex
 import sys
 from typing import Sequence
 
+from wolfpack import dataset
+from wolfpack._checks import MAX_THREADS
+from wolfpack.cli.args import folder, int_at_least
 from wolfpack.task import TASK_ORDER
 
 DATASET_DESCRIPTION = """\
@@ -36,9 +39,8 @@ examples:
   wolfpack dataset --task hunt-v1 --policy runs/wolves --episodes 500 --out data/learned"""
 
 
-def add_parser(sub, parser_class) -> argparse.ArgumentParser:
+def add_parser(sub) -> argparse.ArgumentParser:
     """Registers ``dataset`` on the ``wolfpack`` command's subparsers."""
-    from wolfpack.cli import MAX_THREADS, _folder, _int_at_least
 
     p = sub.add_parser(
         "dataset",
@@ -50,11 +52,11 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
     p.add_argument("--task", required=True, metavar="NAME", choices=TASK_ORDER, help=f"the task: {', '.join(TASK_ORDER)}")
     p.add_argument("--policy", required=True, metavar="LAW_OR_MODEL", help="a law's name or a saved model")
     p.add_argument("--side", choices=("wolves", "targets"), default=None, help="the side the policy plays (default: the law's or the model's)")
-    p.add_argument("--episodes", required=True, metavar="N", type=_int_at_least(1, 1_000_000), help="episodes to record")
-    p.add_argument("--seed", metavar="S", type=_int_at_least(0), default=0, help="episode k is world S + k (default 0)")
+    p.add_argument("--episodes", required=True, metavar="N", type=int_at_least(1, 1_000_000), help="episodes to record")
+    p.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="episode k is world S + k (default 0)")
     p.add_argument("--format", dest="fmt", choices=("auto", "minari", "npz"), default="auto", help="auto (default): Minari for a target on a one-target task, else npz")
-    p.add_argument("--threads", metavar="T", type=_int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
-    p.add_argument("--out", required=True, metavar="DIR", type=_folder, help="a new or empty folder (or --force)")
+    p.add_argument("--threads", metavar="T", type=int_at_least(1, MAX_THREADS), default=None, help="worker threads (default: all cores); results do not depend on it")
+    p.add_argument("--out", required=True, metavar="DIR", type=folder, help="a new or empty folder (or --force)")
     p.add_argument(
         "--force",
         action="store_true",
@@ -67,8 +69,6 @@ def add_parser(sub, parser_class) -> argparse.ArgumentParser:
 
 def cmd_dataset(args: argparse.Namespace, argv: Sequence[str]) -> None:
     from tqdm import tqdm
-
-    from wolfpack import dataset
 
     command = " ".join(shlex.quote(a) for a in ["wolfpack", *argv])
     most = dataset.upper_bound_bytes(args.task, args.episodes)
