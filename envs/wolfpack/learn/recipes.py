@@ -1,6 +1,5 @@
 """The trainer's hyperparameter recipes (``recipes.yaml`` beside this file): one per side and
-algorithm, ``default`` with the ``entities`` section on top when the run uses the set network,
-then the ``<side>.<algo>`` section, then a run's overrides."""
+algorithm, ``default`` with the ``<side>.<algo>`` section on top, then a run's overrides."""
 
 from __future__ import annotations
 
@@ -31,11 +30,7 @@ def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> 
         raise ValueError(f"unknown algorithm {algo!r}: one of {', '.join(ALGOS)}")
     table = yaml.safe_load(RECIPES_PATH.read_text())
     r = dict(table["default"])
-    side_recipe = (table.get(side) or {}).get(algo) or {}
-    # The set network's own defaults go under the side's recipe, which keeps what it tuned.
-    if (overrides or {}).get("network", side_recipe.get("network", r["network"])) == "entities":
-        r.update(table.get("entities") or {})
-    r.update(side_recipe)
+    r.update((table.get(side) or {}).get(algo) or {})
     for section in PARAMS_SECTIONS:
         r[section] = dict(r.get(section) or {})
     for key, value in (overrides or {}).items():
