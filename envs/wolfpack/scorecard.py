@@ -336,7 +336,8 @@ def markdown(card: dict) -> str:
         best_text = f"{best[0]} {100 * best[1]:.1f} %" if best else "—"
         collisions = row["collision_rate"] if side == "wolves" else row["target_collision_rate"]
         lines.append(f"| `{task}` | **{100 * row['score']:.1f} %** ({100 * lo:.1f}–{100 * hi:.1f}) | {100 * collisions:.1f} % | {100 * row['timeout_rate']:.1f} % | {rank_text} | {best_text} |")
-    lines += ["", f"Mean over the {len(card['tasks_played'])} tasks played: {100 * card['mean_score']:.1f} %.", ""]
+    played = len(card["tasks_played"])
+    lines += ["", f"Mean over the {played} task{'s' if played != 1 else ''} played: {100 * card['mean_score']:.1f} %.", ""]
     lines += _partial_captures_lines(card) if side == "wolves" else []
     if card.get("exploitability"):
         ex = card["exploitability"]
