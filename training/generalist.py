@@ -82,7 +82,7 @@ def curves(out: Path, runs: list[Path]) -> None:
     ax.set_ylabel("captured, % of held-out episodes")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right", ncol=2)
+    ax.legend(fontsize=8, loc="best", ncol=2)
     episodes = {len(ev) and ev[0]["tasks"][tasks[0]]["wolves"]["episodes"] for ev in evals}
     spread = f"{len(runs)} training seeds: the median, the range shaded" if len(runs) > 1 else "one training seed"
     ax.set_title(f"One pack for every task: held-out capture per task during training\n({spread}; {'/'.join(map(str, sorted(episodes)))} episodes per task and point)", fontsize=10)
