@@ -35,7 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> None:
     """Entry point of the ``wolfpack`` script; exits with 0 on success. Every failure, Ctrl-C
-    included, is one line on stderr and a status (module docstring)."""
+    included, is one line on stderr and a status (the table in :mod:`wolfpack.cli`)."""
     entry = argv is None  # the process's own command line: it ends here
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
