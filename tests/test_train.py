@@ -325,6 +325,33 @@ def test_imitation_warm_start_clones_the_law_then_trains_with_ppo(tmp_path):
     assert yaml.safe_load((out / "config.yaml").read_text())["imitate_min"] == 0.05
 
 
+def test_imitation_in_rounds_is_the_same_clone_however_busy_the_machine(tmp_path, monkeypatch):
+    """--imitate-rounds: the rounds and the model do not depend on the clock (a run that took
+    ten times longer, as on a loaded machine, clones and trains bit-identically)."""
+    import time as time_module
+
+    import torch
+    import yaml
+
+    def run(out, slow):
+        if slow:
+            start, real = time_module.perf_counter(), time_module.perf_counter
+            monkeypatch.setattr(time_module, "perf_counter", lambda: start + 10 * (real() - start))
+        train("wolves", "ippo", out=out, timesteps=1_000, imitate_rounds=3, overrides=SHORT, hp=TINY, threads=1, torch_threads=1, eval_episodes=2, device="cpu", progress=False)
+        monkeypatch.undo()
+        return json.loads((out / "imitation.json").read_text()), torch.load(out / "wolves" / "policy.pt", weights_only=False)
+
+    rounds_a, model_a = run(tmp_path / "a", slow=False)
+    rounds_b, model_b = run(tmp_path / "b", slow=True)
+    assert [r["beta"] for r in rounds_a] == [r["beta"] for r in rounds_b] == [1.0, 0.5, 0.25]
+    assert [r["loss"] for r in rounds_a] == [r["loss"] for r in rounds_b]
+    assert model_a.keys() == model_b.keys() and all(torch.equal(model_a[k], model_b[k]) for k in model_a)
+    assert yaml.safe_load((tmp_path / "a" / "config.yaml").read_text())["imitate_rounds"] == 3
+    with pytest.raises(ValueError, match="--imitate-rounds"):
+        train("wolves", "ippo", out=tmp_path / "c", timesteps=1_000, imitate_rounds=0, overrides=SHORT, hp=TINY, progress=False)
+    assert not (tmp_path / "c").exists()
+
+
 def test_imitation_fits_the_actor_to_the_law(tmp_path):
     """A few rounds on a tiny batch bring the clone's actions closer to the law's than the
     untrained actor's were, on states the law itself visits."""

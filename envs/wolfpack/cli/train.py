@@ -27,9 +27,11 @@ more than once makes a pool: before every rollout one of them is drawn uniformly
 twice to draw it twice as often) and takes over the other side in every world; the first is the
 one the held-out evaluations play.
 
---imitate MINUTES first clones each learning side's scripted law (params policies.<side>, the
-laws' actions from BatchEnv.expert_actions()) into the same actor with DAgger, then trains it
-with PPO (the critic alone for the first 3 updates); its minutes count in the time limit.
+--imitate-rounds R (or --imitate MINUTES) first clones each learning side's scripted law
+(params policies.<side>, the laws' actions from BatchEnv.expert_actions()) into the same actor
+with R rounds of DAgger, then trains it with PPO (the critic alone for the first 3 updates);
+its minutes count in the time limit. Rounds are reproducible; minutes give a busier machine
+fewer rounds (both: whichever comes first).
 
 Hyperparameters: the packaged recipes (wolfpack/learn/recipes.yaml; one per side and
 algorithm, the defaults measured best), each key changed with --hp KEY=VALUE. Observations
@@ -53,7 +55,7 @@ Writes into --out DIR (a new or empty folder; --resume continues the run there):
                                outcome rates, per side return, losses, entropy, KL, and the
                                held-out evaluations; TensorBoard events beside it
   evaluations.json             every held-out evaluation (after imitation too: phase)
-  imitation.json               with --imitate: each DAgger round (beta, samples, loss)
+  imitation.json               with --imitate(-rounds): each DAgger round (beta, samples, loss)
   checkpoints/<agent steps>/   models and resume state; trainer.pt the latest state
   summary.json                 agent steps, wall time, throughput, the final evaluation
 Ctrl-C saves the models as they are and exits with status 130."""
@@ -131,6 +133,13 @@ def add_parser(sub) -> argparse.ArgumentParser:
         default=None,
         help="first clone each learning side's scripted law (params policies.<side>) for this many minutes with DAgger, then PPO; part of the time limit",
     )
+    p.add_argument(
+        "--imitate-rounds",
+        metavar="R",
+        type=int_at_least(1),
+        default=None,
+        help="first clone each learning side's scripted law with this many DAgger rounds (reproducible on any machine), then PPO",
+    )
     p.add_argument("--evaluations", metavar="K", type=int_at_least(1), default=10, help="held-out evaluations per budget, evenly spread (default 10), and one at the end")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest state (its configuration must match)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -162,6 +171,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
         eval_episodes=args.eval_episodes,
         evaluations=args.evaluations,
         imitate_min=args.imitate,
+        imitate_rounds=args.imitate_rounds,
         resume=args.resume,
         progress=not args.no_progress,
         command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),

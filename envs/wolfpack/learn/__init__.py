@@ -39,6 +39,7 @@ def train(
     eval_episodes: int = 100,
     evaluations: int = 10,
     imitate_min=None,
+    imitate_rounds=None,
     resume: bool = False,
     progress: bool = True,
 ) -> dict:
@@ -67,6 +68,7 @@ def train(
         eval_episodes=eval_episodes,
         evaluations=evaluations,
         imitate_min=imitate_min,
+        imitate_rounds=imitate_rounds,
         resume=resume,
         progress=progress,
         command="",

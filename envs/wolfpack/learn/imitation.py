@@ -1,4 +1,5 @@
-"""Imitation of the analytic laws as a warm start (``wolfpack train --imitate MINUTES``).
+"""Imitation of the analytic laws as a warm start (``wolfpack train --imitate-rounds R`` or
+``--imitate MINUTES``).
 
 Behaviour cloning with DAgger into the trainer's own actor: round 0 drives the worlds with the
 learning side's scripted law (params ``policies.<side>``, queried through
@@ -11,9 +12,15 @@ Adam). The observation normaliser is the actor's own, so the clone and the PPO t
 read observations alike; the log standard deviation keeps its initial value, which is the
 exploration PPO starts from. Its minutes are part of the run's budget and of its training time,
 so every time-to-skill figure includes them.
+
+A budget in rounds is deterministic (a fixed seed and thread counts give the same clone on any
+machine, loaded or not); a budget in minutes gives a machine that is busier fewer rounds. Given
+both, imitation stops at whichever comes first.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import torch
@@ -51,13 +58,15 @@ class Dataset:
         self.size = min(self.capacity, self.size + n)
 
 
-def imitate(trainer, minutes: float, clock, max_rounds: int | None = None) -> list[dict]:
+def imitate(trainer, minutes: float | None, clock, max_rounds: int | None = None) -> list[dict]:
     """Runs DAgger rounds on ``trainer``'s batches (one per task in multi-task training, each
     with its task's law) for every learning side until ``minutes`` have passed on ``clock`` (a
-    function giving the run's training seconds so far), or after ``max_rounds``. Returns one
-    record per round: β, samples, loss, seconds."""
+    function giving the run's training seconds so far), or after ``max_rounds``; at least one
+    of the two is given. Returns one record per round: β, samples, loss, seconds."""
+    if minutes is None and max_rounds is None:
+        raise ValueError("imitation needs a budget: minutes and/or rounds")
     learners, gen = trainer.learners, trainer.generator
-    deadline = clock() + 60.0 * minutes
+    deadline = math.inf if minutes is None else clock() + 60.0 * minutes
     data = {side: Dataset(learner.actor.obs_dim, learner.agents, min(CAPACITY, CAPACITY_BYTES // (4 * learner.actor.obs_dim))) for side, learner in learners.items()}
     optimisers = {side: torch.optim.Adam(learner.actor.body.parameters(), lr=LEARNING_RATE) for side, learner in learners.items()}
     rng = np.random.default_rng(trainer.spec.seed)

@@ -208,6 +208,7 @@ def run_training(
     resume: bool,
     evaluations: int = 10,
     imitate_min: float | None = None,
+    imitate_rounds: int | None = None,
     progress: bool,
     command: str,
 ) -> dict:
@@ -226,6 +227,8 @@ def run_training(
         raise ValueError(f"--time-limit must be > 0 minutes, got {time_limit_min}")
     if imitate_min is not None and not (imitate_min > 0):
         raise ValueError(f"--imitate must be > 0 minutes, got {imitate_min}")
+    if imitate_rounds is not None and (not is_int(imitate_rounds) or imitate_rounds < 1):
+        raise ValueError(f"--imitate-rounds must be an integer >= 1, got {imitate_rounds!r}")
     if imitate_min is not None and time_limit_min is not None and imitate_min >= time_limit_min:
         raise ValueError(f"--imitate {imitate_min:g} must be shorter than --time-limit {time_limit_min:g}: imitation is part of the time limit")
     pool = [str(o) for o in ([opponent] if isinstance(opponent, (str, os.PathLike)) else (opponent or []))]
@@ -280,6 +283,7 @@ def run_training(
         eval_episodes=eval_episodes,
         evaluations=evaluations,
         imitate_min=imitate_min,
+        imitate_rounds=imitate_rounds,
         command=command,
         groups=tuple(groups),
         eval_tasks=tuple(eval_tasks),
@@ -312,6 +316,7 @@ def run_training(
             "eval_episodes": eval_episodes,
             "evaluations": evaluations,
             "imitate_min": imitate_min,
+            "imitate_rounds": imitate_rounds,
             "command": command,
             "versions": versions(),
         }

@@ -77,6 +77,7 @@ class TrainSpec:
     eval_episodes: int = 100
     evaluations: int = 10
     imitate_min: float | None = None
+    imitate_rounds: int | None = None
     command: str = ""
     extra: dict = field(default_factory=dict)
     #: Multi-task training: the groups of worlds the batch is split into, ``(label, task,
@@ -315,10 +316,10 @@ class Trainer:
         critic_only = 0
         rollouts = 0
         try:
-            if spec.imitate_min and self.updates == 0:
+            if (spec.imitate_min or spec.imitate_rounds) and self.updates == 0:
                 from wolfpack.learn.imitation import imitate
 
-                rounds = imitate(self, spec.imitate_min, lambda: time.perf_counter() - t_start - eval_s)
+                rounds = imitate(self, spec.imitate_min, lambda: time.perf_counter() - t_start - eval_s, spec.imitate_rounds)
                 te = time.perf_counter()
                 self._evaluate(time.perf_counter() - t_start - eval_s, phase="imitation")
                 eval_s += time.perf_counter() - te
