@@ -27,17 +27,14 @@ import json
 import os
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 # numpy's OpenBLAS worker threads busy-wait on a 2-core machine and steal time from the
 # simulators' own threads (12% of the samples in a perf profile); nothing here uses BLAS.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from peers import COUNTS, attempt, bench_mpe2, bench_vmas, machine_info, median_rate, note, usable_cores  # noqa: E402
+import numpy as np
+from peers import COUNTS, attempt, bench_mpe2, bench_vmas, machine_info, median_rate, note, usable_cores
 
 
 def bench_vec_env(num_envs: int, steps: int, threads: int | None, repeats: int) -> dict:

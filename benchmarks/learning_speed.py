@@ -46,7 +46,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peers import machine_info  # noqa: E402
 
 LEVELS = (0.80, 0.90, 0.95)

@@ -34,10 +34,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # pygame (mpe2) without a display
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import numpy as np  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from peers import COUNTS, attempt, machine_info, median_rate  # noqa: E402
+import numpy as np
+from peers import COUNTS, attempt, machine_info, median_rate
 
 SIZE = 700  # mpe2's screen is 700 x 700 pixels
 

@@ -33,8 +33,6 @@ keep_freed_memory()
 
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wolfpack  # noqa: E402
 from peers import machine_info  # noqa: E402
 from wolfpack.batch import entity_shape  # noqa: E402

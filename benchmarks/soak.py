@@ -23,6 +23,7 @@ allocator arenas, code pages). Usage::
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import os
 import subprocess
@@ -98,8 +99,7 @@ BATCH_CHILD = textwrap.dedent("""
     import json, sys, time
     import numpy as np
     from wolfpack import _core
-    sys.path.insert(0, {here!r})
-    from soak import rss_mb
+    {rss_mb}
     law, steps, threads = {law!r}, {steps}, {threads}
     params = _core.validate_params({{"policies": {{"wolves": law}}}})
     num_envs = 64
@@ -129,8 +129,9 @@ BATCH_CHILD = textwrap.dedent("""
 
 
 def soak_batch(law: str, steps: int, threads: int | None) -> dict:
-    here = os.path.dirname(os.path.abspath(__file__))
-    code = BATCH_CHILD.format(here=here, law=law, steps=steps, threads=threads)
+    # The child measures its own memory with the same function (its source, not an import: the
+    # child runs without this folder on its path).
+    code = BATCH_CHILD.format(rss_mb=inspect.getsource(rss_mb), law=law, steps=steps, threads=threads)
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     if proc.returncode != 0:
         raise SystemExit(f"soak batch {law}: exit {proc.returncode}: {proc.stderr.strip()[-2000:]}")

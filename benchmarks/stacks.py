@@ -35,17 +35,14 @@ import sys
 import time
 import warnings
 from contextlib import contextmanager
-from pathlib import Path
 from typing import Callable
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import wolfpack  # noqa: E402
-from peers import machine_info  # noqa: E402
-from wolfpack import _core  # noqa: E402
+import numpy as np
+import wolfpack
+from peers import machine_info
+from wolfpack import _core
 
 
 @contextmanager

@@ -25,16 +25,13 @@ import json
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import torch
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from peers import machine_info  # noqa: E402
-from under_load import rate as batch_rate  # noqa: E402  (the same timing of BatchEnv.step)
-from wolfpack import BatchEnv  # noqa: E402
-from wolfpack.torchrl_env import WolfpackEnv  # noqa: E402
+from peers import machine_info
+from under_load import rate as batch_rate  #  (the same timing of BatchEnv.step)
+from wolfpack import BatchEnv
+from wolfpack.torchrl_env import WolfpackEnv
 
 
 def view_rate(env: WolfpackEnv, td, actions: torch.Tensor, seconds: float):

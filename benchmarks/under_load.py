@@ -24,10 +24,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from peers import machine_info  # noqa: E402
-from wolfpack import BatchEnv  # noqa: E402
+from peers import machine_info
+from wolfpack import BatchEnv
 
 SPIN = "while True: pass"
 

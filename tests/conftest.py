@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
 import signal
@@ -18,6 +19,18 @@ if importlib.util.find_spec("ray") is None:
     collect_ignore = ["rllib"]
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+@functools.cache
+def training_script(name: str):
+    """``training/NAME.py`` as a module, loaded once (the scripts import only the installed
+    package, so each loads on its own, without their folder on the import path)."""
+    spec = importlib.util.spec_from_file_location(f"training_{name}", REPO_ROOT / "training" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # as an import would: dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
 
 #: Keeps end-to-end runs short: episodes end by 120 steps at the latest.
 SHORT = ("--set", "world.max_steps=120")

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import training_script
+from wolfpack.report import benchmark as benchmark_figures
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "training"))
-
-import benchmark_report  # noqa: E402
+benchmark_report = training_script("benchmark_report")
 
 pytest.importorskip("scipy")
 
@@ -58,16 +57,16 @@ def test_the_report_tables_every_baseline_per_task_and_the_learners_over_tasks(t
 
 def test_the_stratified_interval_contains_the_iqm_and_resamples_within_tasks():
     steady = [np.array([0.5, 0.5, 0.5]), np.array([0.9, 0.9])]
-    point, ci = benchmark_report.stratified_iqm(steady)
+    point, ci = benchmark_figures.stratified_iqm(steady)
     assert ci == [point, point]  # nothing varies within a task: no spread to resample
     spread = [np.array([0.1, 0.5, 0.9, 0.3, 0.7]), np.array([0.2, 0.8, 0.6])]
-    point, (lo, hi) = benchmark_report.stratified_iqm(spread)
+    point, (lo, hi) = benchmark_figures.stratified_iqm(spread)
     assert lo < point < hi
 
 
 def test_the_performance_profile_counts_runs_above_each_threshold():
-    prof = benchmark_report.profile([np.array([0.2, 0.6]), np.array([0.8])])
-    at = {round(float(t), 3): p for t, p in zip(benchmark_report.TAUS, prof)}
+    prof = benchmark_figures.profile([np.array([0.2, 0.6]), np.array([0.8])])
+    at = {round(float(t), 3): p for t, p in zip(benchmark_figures.TAUS, prof)}
     assert at[0.0] == 1.0 and at[0.5] == pytest.approx(2 / 3) and at[0.7] == pytest.approx(1 / 3) and at[0.9] == 0.0
 
 

@@ -58,3 +58,18 @@ def test_a_deferred_import_of_the_package_defers_a_heavy_dependency():
 
 def test_the_command_line_starts_without_a_heavy_dependency():
     assert brings(["wolfpack.cli"]) == {"wolfpack.cli": []}
+
+
+def test_no_source_edits_the_import_path():
+    """The scripts of training/ and benchmarks/ and the tests import the installed package (a
+    script's own folder is on the path when it runs): none edits the import path."""
+    root = PACKAGE.parents[1]
+    spelled = "sys." + "path"  # not spelled out here, so that this file does not find itself
+    found = [
+        f"{path.relative_to(root)}:{n}"
+        for folder in ("envs", "training", "benchmarks", "tests", "rust")
+        for path in sorted((root / folder).rglob("*.py"))
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if spelled in line
+    ]
+    assert not found, found

@@ -3,9 +3,6 @@ or evaluation rows; legends sit outside the data; count axes have integer ticks.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import matplotlib
 
 matplotlib.use("Agg")
@@ -59,13 +56,12 @@ def test_twelve_wolves_get_twelve_distinct_lines_and_outside_legends(saved, tmp_
 
 
 def test_evaluation_capture_times_distinguish_twelve_rows(saved, tmp_path):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "training"))
-    import evaluate
+    from wolfpack.report.evaluation import plot
 
     rows = [
         {"wolves": f"w{k}", "targets": "escape", "episodes": 10, "first_seed": 0, "capture_rate": 0.5, "capture_rate_ci95": [0.2, 0.8], "capture_steps": list(range(10 + k, 15 + k))} for k in range(12)
     ]
-    evaluate.plot(rows, tmp_path)
+    plot(rows, tmp_path)
     times = saved[-1]
     styles = [(line.get_color(), line.get_linestyle()) for line in times.axes[0].get_lines()]
     assert len(styles) == 12 and len(set(styles)) == 12
@@ -114,15 +110,14 @@ def test_one_episodes_summary_reads_well(saved, tmp_path):
 
 
 def test_league_curves_keep_coincident_rates_apart(saved, tmp_path):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "training"))
-    import selfplay
+    from wolfpack.report.league import league_curves
 
     member = {"name": "targets_g01", "side": "targets", "kind": "model", "generation": 1}
     laws = [{"name": law, "side": "wolves", "kind": "scripted", "generation": 0} for law in ("seed000", "bvc", "formation")]
     # The one target member survives bvc and formation alike: two points at the same place.
     evaluations = [{"wolves": law["name"], "targets": "targets_g01", "capture_rate": rate} for law, rate in zip(laws, (0.2, 0.9, 0.9))]
     league = {"members": [*laws, member], "evaluations": evaluations, "generations": [{"generation": 1, "side": "targets", "timesteps": 1000}]}
-    selfplay.league_curves(tmp_path, league)
+    league_curves(tmp_path, league)
     targets_ax = saved[-1].axes[1]
     points = {line.get_label(): (tuple(line.get_xydata()[0]), line.get_marker()) for line in targets_ax.get_lines() if line.get_label().startswith("vs ")}
     (xy_bvc, marker_bvc), (xy_formation, marker_formation) = points["vs bvc"], points["vs formation"]

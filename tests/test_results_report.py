@@ -5,18 +5,20 @@ from __future__ import annotations
 
 import json
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "training"))
 
 pytest.importorskip("scipy")
 pytest.importorskip("yaml")
 
-import results_report  # noqa: E402
+from conftest import training_script  # noqa: E402
+from wolfpack.report import results_tables  # noqa: E402
+from wolfpack.report.documents import Results, blocks_of  # noqa: E402
+
+results_report = training_script("results_report")
 
 
 @pytest.fixture
@@ -32,17 +34,17 @@ def copied(tmp_path) -> tuple[list[Path], Path]:
 
 
 def test_the_committed_tables_are_what_the_committed_results_give():
-    problems = results_report.check(results_report.DOCUMENTS, ROOT / "results")
+    problems = results_report.check_documents(results_report.DOCUMENTS, ROOT / "results")
     assert problems == [], f"{problems}: run python training/results_report.py"
 
 
 def test_every_registered_table_has_a_block_and_none_twice_in_one_document():
     placed = set()
     for document in results_report.DOCUMENTS:
-        names = [name for name, _, _ in results_report.blocks_of(document.read_text())]
+        names = [name for name, _, _ in blocks_of(document.read_text())]
         assert len(names) == len(set(names)), document.name
         placed |= set(names)
-    assert placed == set(results_report.BLOCKS)
+    assert placed == set(results_tables.BLOCKS)
 
 
 def test_a_changed_result_makes_its_table_stale_and_the_report_rewrites_it(copied, capsys):
@@ -55,7 +57,7 @@ def test_a_changed_result_makes_its_table_stale_and_the_report_rewrites_it(copie
     seeds_file.write_text(json.dumps(doc))
     before = document.read_text()
 
-    assert results_report.check(documents, results) == ["stale in RESULTS.md: wolves-mappo-seeds"]
+    assert results_report.check_documents(documents, results) == ["stale in RESULTS.md: wolves-mappo-seeds"]
     assert results_report.main(["--check", "--results", str(results), *out]) == 1
     message = capsys.readouterr().err.strip()
     assert "\n" not in message and "wolves-mappo-seeds" in message and "matrix" not in message
@@ -65,7 +67,7 @@ def test_a_changed_result_makes_its_table_stale_and_the_report_rewrites_it(copie
     after = document.read_text()
     assert "| escape (trained against) | **50.0 % [95.0, 96.8]** |" in after
     assert after.replace("**50.0 % [95.0, 96.8]**", "**95.5 % [95.0, 96.8]**") == before  # only that cell moved
-    assert results_report.check(documents, results) == []
+    assert results_report.check_documents(documents, results) == []
 
 
 def test_a_table_edited_by_hand_is_stale(copied):
@@ -74,18 +76,18 @@ def test_a_table_edited_by_hand_is_stale(copied):
     typed = text.replace("| 1 | targets | 13,615,104 | 4.5 |", "| 1 | targets | 13,615,104 | 4.6 |")
     assert typed != text
     document.write_text(typed)
-    assert results_report.check([document, readme], results) == ["stale in RESULTS.md: native-league"]
+    assert results_report.check_documents([document, readme], results) == ["stale in RESULTS.md: native-league"]
     # README's table is generated too: a learned result changed under it is caught there.
     learned = results / "benchmark" / "learned.json"
     doc = json.loads(learned.read_text())
     doc["summary"]["hunt-v1"]["mappo-escaper"]["iqm"] = 0.25
     learned.write_text(json.dumps(doc))
-    assert "stale in README.md: front-page-benchmark" in results_report.check([document, readme], results)
+    assert "stale in README.md: front-page-benchmark" in results_report.check_documents([document, readme], results)
 
 
 def test_a_table_without_a_block_in_any_document_is_reported(copied):
     (document, readme), results = copied
-    assert results_report.check([document], results) == ["no block for: front-page-benchmark"]
+    assert results_report.check_documents([document], results) == ["no block for: front-page-benchmark"]
 
 
 def test_unclosed_or_unknown_blocks_are_refused_with_status_2(copied, capsys):
@@ -106,8 +108,8 @@ def test_the_source_wall_factor_run_feeds_the_sb3_sections_tables(copied):
     row = next(r for r in doc["rows"] if r["wolves"] == "seed000" and r["targets"] == "escape")
     row["capture_rate"], row["survival_rate"] = 0.9, 0.1  # were 0.94 and 0.06
     run.write_text(json.dumps(doc))
-    assert results_report.check(documents, results) == ["stale in RESULTS.md: wall-factor, escape-ppo, wolves-imitation, laws-vs-escape-ppo"]
-    table = results_report.escape_ppo(results_report.Results(results))
+    assert results_report.check_documents(documents, results) == ["stale in RESULTS.md: wall-factor, escape-ppo, wolves-imitation, laws-vs-escape-ppo"]
+    table = results_tables.escape_ppo(Results(results, checkout=ROOT))
     assert "| scripted `escape` | 10.0 % |" in table and "**8.9×**" in table  # 89.0 % / 10.0 %
 
 
@@ -119,7 +121,7 @@ def test_the_league_targets_are_judged_on_the_matrix(copied):
         if cell["wolves"] == "ppo:league/wolves_g06" and cell["targets"] == "ppo:escape_ppo":
             cell["capture_rate"] = 0.93  # was 0.855, under the 90 % asked
     matrix.write_text(json.dumps(doc))
-    rows = results_report.league_targets(results_report.Results(results)).splitlines()
+    rows = results_tables.league_targets(Results(results, checkout=ROOT)).splitlines()
     assert rows[3] == "| learned wolves ≥ 90 % against the learned escaper escape_ppo | best: league/wolves_g06 93.0 % (80–90 %) | yes |"
     assert rows[2].endswith("| **no** |") and rows[6].endswith("| yes |")
 
@@ -130,9 +132,9 @@ def test_the_pool_column_follows_the_pool_the_seeds_trained_against(copied):
     assert len(configs) == 5
     for config in configs:
         config.write_text(config.read_text().replace("- results/models/escape_ppo\n", ""))
-    table = results_report.wolves_pool_seeds(results_report.Results(results))
+    table = results_tables.wolves_pool_seeds(Results(results, checkout=ROOT))
     assert "| ppo:escape_ppo (the committed learned escaper) | **no** |" in table
     assert "| SB3 league targets_g01 | yes |" in table
     configs[0].write_text(configs[0].read_text().replace("- escape\n", "", 1))
     with pytest.raises(ValueError, match="different pools"):
-        results_report.wolves_pool_seeds(results_report.Results(results))
+        results_tables.wolves_pool_seeds(Results(results, checkout=ROOT))

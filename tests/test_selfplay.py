@@ -7,20 +7,20 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
 pytest.importorskip("stable_baselines3")
 
-TRAINING = Path(__file__).resolve().parents[1] / "training"
-sys.path.insert(0, str(TRAINING))
-
-import common  # noqa: E402
-import evaluate  # noqa: E402
-import selfplay  # noqa: E402
+from conftest import training_script  # noqa: E402
 from wolfpack import cli  # noqa: E402
+from wolfpack.evaluation import report  # noqa: E402
+from wolfpack.learn.matches import play  # noqa: E402
+from wolfpack.learn.sb3 import env_params, load_model  # noqa: E402
+
+evaluate = training_script("evaluate")
+selfplay = training_script("selfplay")
 
 MODELS = Path(__file__).resolve().parents[1] / "results" / "models"
 #: Two or three updates of the trainer per generation (4 worlds x 16 steps x 5 wolves = 320
@@ -68,7 +68,7 @@ def test_selfplay_builds_a_league_of_frozen_members(league):
     # Every learned member is a model that training's loader (and so opponent=) accepts.
     for m in doc["members"]:
         if m["kind"] == "model" and not m.get("fixed"):
-            loaded = common.load_model(league / m["path"])
+            loaded = load_model(league / m["path"])
             assert loaded.side == m["side"] and loaded.algo == "mappo" and m["timesteps"] >= 640
             assert loaded.label == f"mappo:{m['name']}" and (league / m["state"]).is_file()
     # The fixed members were measured against each other, then each new member against the
@@ -159,10 +159,10 @@ def test_matrix_with_models_and_a_league(league, tmp_path):
     assert len(doc["cells"]) == len(doc["wolves"]) * len(doc["targets"]) and (out / "matrix.png").stat().st_size > 20_000
     assert "worst case (capture)" in (out / "matrix.md").read_text()
     # A model's cell is the model in its own action mode (wolves_ft: velocity) against the law:
-    # the same episodes as driving it by hand through common.play.
-    ft = common.load_model(MODELS / "wolves_ft")
-    base = common.env_params(None, ["world.max_steps=60"])
-    want = common.report(common.play(base, ft, "escape", episodes=6, seed=0), ft.label, "escape")
+    # the same episodes as driving it by hand through play.
+    ft = load_model(MODELS / "wolves_ft")
+    base = env_params(None, ["world.max_steps=60"])
+    want = report(play(base, ft, "escape", episodes=6, seed=0), ft.label, "escape")
     cell = next(c for c in doc["cells"] if c["wolves"] == "ppo:wolves_ft" and c["targets"] == "escape")
     assert cell["capture_rate"] == want["capture_rate"] and cell["mean_energy"] == want["mean_energy"]
 

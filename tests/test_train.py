@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import popen_interruptible
+from conftest import popen_interruptible, training_script
 
 torch = pytest.importorskip("torch")
 
@@ -23,6 +23,7 @@ import wolfpack  # noqa: E402
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout  # noqa: E402
 from wolfpack.learn import recipe, train  # noqa: E402
 from wolfpack.models import load_policy  # noqa: E402
+from wolfpack.stats import iqm_interval  # noqa: E402
 
 TRAINING = Path(__file__).resolve().parents[1] / "training"
 
@@ -235,8 +236,7 @@ def test_saved_model_acts_as_the_trainer_did_and_drives_opponent_and_evaluation(
 
 def test_training_evaluate_reads_a_run_of_both_sides(both_run, tmp_path):
     out, _ = both_run
-    sys.path.insert(0, str(TRAINING))
-    import evaluate
+    evaluate = training_script("evaluate")
 
     dest = tmp_path / "eval"
     assert evaluate.main(["--episodes", "3", "--seed", "0", "--set", "world.max_steps=40", "--out", str(dest), str(out)]) == 0
@@ -375,14 +375,13 @@ def test_imitation_fits_the_actor_to_the_law(tmp_path):
 
 
 def test_seeds_report_gives_the_interquartile_mean_with_a_bootstrap_interval(tmp_path):
-    sys.path.insert(0, str(TRAINING))
-    import seeds
+    seeds = training_script("seeds")
 
-    s = seeds.iqm_interval([0.1, 0.2, 0.3, 0.4, 1.0])
+    s = iqm_interval([0.1, 0.2, 0.3, 0.4, 1.0])
     assert s["iqm"] == pytest.approx(0.3)  # the middle three of five: the outlier 1.0 does not move it
     assert s["median"] == 0.3 and (s["min"], s["max"]) == (0.1, 1.0)
     assert 0.1 <= s["ci95"][0] <= 0.3 <= s["ci95"][1] <= 1.0 and s["ci95"][0] < s["ci95"][1]
-    assert seeds.iqm_interval([0.5, 0.5])["ci95"] == [0.5, 0.5]
+    assert iqm_interval([0.5, 0.5])["ci95"] == [0.5, 0.5]
     runs = [tmp_path / f"s{k}" for k in range(2)]
     for k, run in enumerate(runs):
         tiny_train(run, seed=k, timesteps=700)

@@ -13,14 +13,20 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-TRAINING = Path(__file__).resolve().parents[1] / "training"
-sys.path.insert(0, str(TRAINING))
-
-import common  # noqa: E402
-import evaluate  # noqa: E402
-import imitate  # noqa: E402
-import train  # noqa: E402
+import wolfpack  # noqa: E402
+import yaml  # noqa: E402
+from conftest import training_script  # noqa: E402
 from wolfpack import cli  # noqa: E402
+from wolfpack.batch import OUTCOMES, BatchEnv  # noqa: E402
+from wolfpack.evaluation import HELD_OUT_SEED, rollout, wilson_interval  # noqa: E402
+from wolfpack.learn.matches import evaluate_model, record_episode  # noqa: E402
+from wolfpack.learn.sb3 import env_params, load_model  # noqa: E402
+from wolfpack.report.evaluation import matrix_summary_markdown, scenario_name  # noqa: E402
+
+TRAINING = Path(__file__).resolve().parents[1] / "training"
+evaluate = training_script("evaluate")
+imitate = training_script("imitate")
+train = training_script("train")
 
 TINY_PPO = ["--hp", "n_steps=16", "--hp", "batch_size=64", "--hp", "n_epochs=1", "--num-envs", "4", "--eval-episodes", "4", "--no-progress"]
 
@@ -66,8 +72,8 @@ def test_train_writes_model_config_logs_checkpoints_and_evaluations(trained_targ
     assert list(out.glob("events.out.tfevents.*")), "TensorBoard log missing"
     checkpoints = sorted((out / "checkpoints").glob("model_*_steps.zip"))
     assert checkpoints
-    assert common.load_model(checkpoints[0]).label == f"ppo:{out.name}/{checkpoints[0].stem}"  # config found in the run folder
-    config = common.yaml.safe_load((out / "config.yaml").read_text())
+    assert load_model(checkpoints[0]).label == f"ppo:{out.name}/{checkpoints[0].stem}"  # config found in the run folder
+    config = yaml.safe_load((out / "config.yaml").read_text())
     assert config["side"] == "targets" and config["algo"] == "ppo" and config["seed"] == 3
     assert config["params"]["policies"]["wolves"] == "seed000"
     assert config["hyperparams"]["n_steps"] == 16
@@ -77,15 +83,15 @@ def test_train_writes_model_config_logs_checkpoints_and_evaluations(trained_targ
     history = json.loads((out / "evaluations.json").read_text())
     # one before learning, at least one during, one after
     assert len(history) >= 3 and history[0]["timesteps"] == 0
-    assert all(h["episodes"] == 4 and h["first_seed"] == common.HELD_OUT_SEED for h in history)
+    assert all(h["episodes"] == 4 and h["first_seed"] == HELD_OUT_SEED for h in history)
     assert "eval/capture_rate" in (out / "progress.csv").read_text().splitlines()[0]
 
 
 def test_saved_model_reloads_and_reproduces_its_evaluation(trained_targets):
     summary = json.loads((trained_targets / "train_summary.json").read_text())
     final = summary["final_held_out"]
-    model = common.load_model(trained_targets)
-    again = common.evaluate_model(model, episodes=4, seed=common.HELD_OUT_SEED)
+    model = load_model(trained_targets)
+    again = evaluate_model(model, episodes=4, seed=HELD_OUT_SEED)
     again.pop("capture_steps")
     for key in ("capture_rate", "median_capture_steps", "collision_rate", "timeout_rate", "mean_energy", "mean_return_targets", "mean_return_wolves"):
         assert again[key] == final[key], key
@@ -137,23 +143,23 @@ def test_imitation_model_is_fine_tuned_by_train_init_from(imitated_wolves, tmp_p
     assert [h["beta"] for h in history] == [1.0, 0.5]
     assert doc["best_round"] == max(range(2), key=lambda r: (history[r]["held_out"]["capture_rate"], -r))
     assert history[1]["samples"] == 2 * history[0]["samples"] == 2 * 20 * 2 * 5
-    bc = common.load_model(imitated_wolves)
+    bc = load_model(imitated_wolves)
     assert bc.side == "wolves" and bc.config["imitation_of"] == "seed000"
     assert math.isclose(float(bc.model.policy.log_std.detach()[0]), -1.2, rel_tol=1e-6)
     out = tmp_path / "ft"
     assert train.main(["--side", "wolves", "--timesteps", "160", "--out", str(out), "--init-from", str(imitated_wolves), *TINY_PPO]) == 0
-    config = common.yaml.safe_load((out / "config.yaml").read_text())
+    config = yaml.safe_load((out / "config.yaml").read_text())
     assert config["init_from"] == str(imitated_wolves.resolve())
     assert config["hyperparams"]["learning_rate"] == 1.0e-4  # the finetune section applied
     # without --params/--set the fine-tuning runs on the source's scenario, not the default one
     assert config["params"] == bc.config["params"]
     assert config["params"]["env"]["action_mode"] == "velocity" and config["params"]["env"]["lidar"]["rays"] == 12
     # the kept policy is the best round's: its held-out evaluation is reproduced from model.zip
-    bc_row = common.evaluate_model(bc, episodes=2, seed=common.HELD_OUT_SEED)
+    bc_row = evaluate_model(bc, episodes=2, seed=HELD_OUT_SEED)
     assert bc_row["mean_return_wolves"] == history[doc["best_round"]]["held_out"]["mean_return_wolves"]
     # training started from the imitation weights: its evaluation before learning is the BC policy's
     first = json.loads((out / "evaluations.json").read_text())[0]
-    bc_row = common.evaluate_model(bc, episodes=4, seed=common.HELD_OUT_SEED)
+    bc_row = evaluate_model(bc, episodes=4, seed=HELD_OUT_SEED)
     assert first["capture_rate"] == bc_row["capture_rate"] and first["mean_return_wolves"] == bc_row["mean_return_wolves"]
 
 
@@ -161,22 +167,22 @@ def test_init_from_refuses_params_that_change_the_spaces(imitated_wolves, tmp_pa
     base = ["--side", "wolves", "--timesteps", "10", "--out", str(tmp_path / "o"), "--init-from", str(imitated_wolves)]
     assert train.main([*base, "--set", "env.action_mode=unicycle"]) == 2
     assert "takes 46 observations in 'velocity' action mode, these params give 46 in 'unicycle' mode" in capsys.readouterr().err
-    assert train.main([*base, "--params", str(Path(common.wolfpack.__file__).with_name("params.yaml"))]) == 2
+    assert train.main([*base, "--params", str(Path(wolfpack.__file__).with_name("params.yaml"))]) == 2
     assert "these params give 50 in 'unicycle' mode" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
 
 def test_imitation_labels_are_the_expert_actions():
     """The data imitate.py fits: expert_actions() of the learner side, which reproduce the law."""
-    b = common.BatchEnv(None, num_envs=2, learners="wolves", seed=5, autoreset=False, threads=1)
-    hunt = common.rollout(common.env_params(None, []), episodes=2, seed=5)
+    b = BatchEnv(None, num_envs=2, learners="wolves", seed=5, autoreset=False, threads=1)
+    hunt = rollout(env_params(None, []), episodes=2, seed=5)
     b.reset(5)
     while True:
         wolves, _ = b.expert_actions()
         out = b.step(wolves, None)
         if (out["outcome"] != 0).all():
             break
-    assert [common.OUTCOMES[o] for o in out["outcome"]] == [r["outcome"] for r in hunt]
+    assert [OUTCOMES[o] for o in out["outcome"]] == [r["outcome"] for r in hunt]
 
 
 def test_sac_trains_and_evaluates(tmp_path):
@@ -192,7 +198,7 @@ def test_sac_trains_and_evaluates(tmp_path):
     [
         (["--side", "sheep", "--timesteps", "10", "--out", "X"], "invalid choice: 'sheep'"),
         (["--side", "wolves", "--algo", "dqn", "--timesteps", "10", "--out", "X"], "invalid choice: 'dqn'"),
-        (["--side", "wolves", "--timesteps", "0", "--out", "X"], "positive integer"),
+        (["--side", "wolves", "--timesteps", "0", "--out", "X"], "--timesteps: must be >= 1"),
         (["--side", "wolves", "--timesteps", "10", "--out", "X", "--seed", "-1"], "seed"),
     ],
 )
@@ -225,9 +231,9 @@ def test_missing_or_mismatched_models_give_clear_errors(tmp_path, capsys, traine
     # a model whose observation layout is not this version's (here: its config says 8 rays)
     stale = tmp_path / "stale"
     stale.mkdir()
-    config = common.yaml.safe_load((trained_targets / "config.yaml").read_text())
+    config = yaml.safe_load((trained_targets / "config.yaml").read_text())
     config["params"]["env"]["lidar"]["rays"] = 8
-    (stale / "config.yaml").write_text(common.yaml.safe_dump(config))
+    (stale / "config.yaml").write_text(yaml.safe_dump(config))
     (stale / "model.zip").write_bytes((trained_targets / "model.zip").read_bytes())
     assert evaluate.main(["--episodes", "1", str(stale)]) == 2
     assert "it takes 51 observations, but this version of wolfpack gives the targets 43" in capsys.readouterr().err
@@ -237,11 +243,11 @@ def test_missing_or_mismatched_models_give_clear_errors(tmp_path, capsys, traine
 
 
 def test_wilson_interval_hand_computed():
-    lo, hi = common.wilson_interval(94, 100)
+    lo, hi = wilson_interval(94, 100)
     # p = 0.94, z = 1.96: centre (0.94 + 0.019208)/1.038416, half 1.96·sqrt(0.000564 + 0.00009604)/1.038416
     assert lo == pytest.approx(0.87529, abs=1e-4) and hi == pytest.approx(0.97223, abs=1e-4)
-    assert common.wilson_interval(0, 20)[0] == 0.0 and common.wilson_interval(20, 20)[1] == 1.0
-    assert common.wilson_interval(10, 20) == pytest.approx((0.29929, 0.70071), abs=1e-4)
+    assert wilson_interval(0, 20)[0] == 0.0 and wilson_interval(20, 20)[1] == 1.0
+    assert wilson_interval(10, 20) == pytest.approx((0.29929, 0.70071), abs=1e-4)
 
 
 def test_discounted_returns_restart_at_episode_ends():
@@ -256,8 +262,8 @@ def test_recorded_episode_equals_hunt_trajectory():
     import wolfpack
     from wolfpack import logs
 
-    params = common.env_params(None, [])
-    mine = common.record_episode(params, 3)
+    params = env_params(None, [])
+    mine = record_episode(params, 3)
     hunt = logs.trajectory_arrays(wolfpack.run_episodes(params, 1, 3, record=True)[0], params)
     for key in ("wolves", "targets", "energy", "interaction", "obstacle_poses", "obstacle_radius", "obstacle_kind", "border"):
         np.testing.assert_array_equal(mine[key], hunt[key], err_msg=key)
@@ -272,9 +278,9 @@ def test_evaluate_draws_trajectories(tmp_path, trained_targets):
 
 
 def test_target_wall_distance_is_the_final_pose_to_the_nearest_wall():
-    params = common.env_params(None, ["world.border=[-9,-8,10,11]"])
-    [row] = common.rollout(params, episodes=1, seed=4)
-    x, y = common.record_episode(params, 4)["targets"][-1, 0, :2]
+    params = env_params(None, ["world.border=[-9,-8,10,11]"])
+    [row] = rollout(params, episodes=1, seed=4)
+    x, y = record_episode(params, 4)["targets"][-1, 0, :2]
     assert row["target_wall_distance"] == pytest.approx(min(x + 9, 10 - x, y + 8, 11 - y), abs=1e-12)
 
 
@@ -289,8 +295,8 @@ def test_published_models_reload_and_reproduce_results_md():
     scripted = published[("seed000", "escape")]
     rows = {}
     for name in ("escape_ppo", "wolves_bc_vel_b", "wolves_ft"):
-        m = common.load_model(RESULTS / "models" / name)
-        row = common.evaluate_model(m, episodes=200, seed=0, threads=None)
+        m = load_model(RESULTS / "models" / name)
+        row = evaluate_model(m, episodes=200, seed=0, threads=None)
         row.pop("capture_steps")
         want = published[(row["wolves"], row["targets"])]
         assert abs(row["capture_rate"] - want["capture_rate"]) <= 0.05, (name, row["capture_rate"], want["capture_rate"])
@@ -317,8 +323,6 @@ def test_evaluations_and_checkpoints_fall_on_rollout_boundaries(tmp_path):
 def test_a_time_limit_sets_the_cadence_of_evaluations_and_checkpoints_unless_a_frequency_is_given():
     import argparse
 
-    import train
-
     limited = argparse.Namespace(time_limit=4.0, timesteps=30_000_000)
     assert train.clock_period(limited, None, 10) == 24.0  # a tenth of 4 minutes
     assert train.clock_period(limited, None, 5) == 48.0
@@ -330,16 +334,16 @@ def test_a_time_limit_sets_the_cadence_of_evaluations_and_checkpoints_unless_a_f
 def test_the_matrix_names_the_scenario_it_was_played_in():
     from wolfpack.task import task_params
 
-    assert evaluate.scenario_name(task_params("hunt-v1")) == "task `hunt-v1` (the documented scenario, params.yaml)"
+    assert scenario_name(task_params("hunt-v1")) == "task `hunt-v1` (the documented scenario, params.yaml)"
     # JSON's lists for tuples, and the learner's keys, do not change the scenario.
     small = json.loads(json.dumps(task_params("small-pack-v1")))
     small["env"] = dict(small["env"], last_sighting=True)
-    assert evaluate.scenario_name(small) == "task `small-pack-v1`"
+    assert scenario_name(small) == "task `small-pack-v1`"
     changed = json.loads(json.dumps(task_params("hunt-v1")))
     changed["world"]["max_steps"] = 100
-    assert evaluate.scenario_name(changed).startswith("params of no named task")
+    assert scenario_name(changed).startswith("params of no named task")
     doc = json.loads((TRAINING.parent / "results" / "matrix" / "matrix.json").read_text())
-    assert "played in task `hunt-v1`" in evaluate.matrix_summary_markdown(doc).splitlines()[0]
+    assert "played in task `hunt-v1`" in matrix_summary_markdown(doc).splitlines()[0]
 
 
 def test_the_sb3_scripts_ask_torch_openmp_to_wait_passively_unless_the_user_chose():
@@ -347,7 +351,7 @@ def test_the_sb3_scripts_ask_torch_openmp_to_wait_passively_unless_the_user_chos
     import subprocess
 
     # A fresh interpreter: importing a script sets the policy before torch loads.
-    code = f"import os, sys\nsys.path.insert(0, {str(TRAINING)!r})\nimport train, torch\nprint(os.environ.get('OMP_WAIT_POLICY'))\n"
+    code = f"import os, runpy\nrunpy.run_path({str(TRAINING / 'train.py')!r})\nimport torch\nprint(os.environ.get('OMP_WAIT_POLICY'))\n"
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
     fresh = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert fresh.stdout.strip() == "PASSIVE"

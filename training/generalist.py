@@ -22,13 +22,12 @@ import json
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import numpy as np  # noqa: E402
-from common import UsageError, positive_int, prepare_out  # noqa: E402
-from seeds import iqm_cell, iqm_interval  # noqa: E402
-from wolfpack.evaluation import HELD_OUT_SEED  # noqa: E402
-from wolfpack.scorecard import best_law, load_baselines, scorecard  # noqa: E402
+import numpy as np
+from wolfpack.cli.args import int_at_least
+from wolfpack.evaluation import HELD_OUT_SEED
+from wolfpack.learn.sb3 import prepare_out
+from wolfpack.scorecard import best_law, load_baselines, scorecard
+from wolfpack.stats import iqm_cell, iqm_interval
 
 
 def summarise(cards: list[dict], best: dict[str, tuple[str, float] | None]) -> dict:
@@ -93,16 +92,16 @@ def curves(out: Path, runs: list[Path]) -> None:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="generalist.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs", nargs="+", metavar="RUN", help="run folders of a multi-task wolfpack train, one per training seed")
-    p.add_argument("--episodes", type=positive_int, default=200, help="episodes per task and variation (default 200, the baselines' count)")
+    p.add_argument("--episodes", type=int_at_least(1), default=200, help="episodes per task and variation (default 200, the baselines' count)")
     p.add_argument("--out", required=True, help="output folder")
     args = p.parse_args(argv)
     try:
         runs = [Path(r) for r in args.runs]
         for run in runs:
             if not (run / "wolves" / "policy.pt").is_file():
-                raise UsageError(f"{run}: no wolves/policy.pt (a run folder of wolfpack train --side wolves)")
+                raise ValueError(f"{run}: no wolves/policy.pt (a run folder of wolfpack train --side wolves)")
         out = prepare_out(args.out)
-    except (UsageError, ValueError) as e:
+    except ValueError as e:
         print(f"generalist.py: error: {e}", file=sys.stderr)
         return 2
     baselines = load_baselines()

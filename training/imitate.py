@@ -37,27 +37,13 @@ import time
 import warnings
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import numpy as np  # noqa: E402
-from common import (  # noqa: E402
-    HELD_OUT_SEED,
-    IMITATION_SEED_BASE,
-    MODEL_FILE,
-    SIDES,
-    UsageError,
-    algorithms,
-    env_params,
-    hyperparams,
-    positive_int,
-    prepare_out,
-    report,
-    rollout,
-    sb3_kwargs,
-    seed_int,
-    versions,
-    write_config,
-)
+import numpy as np
+from wolfpack.cli.args import int_at_least
+from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, report, rollout
+from wolfpack.learn.sb3 import algorithms, env_params, hyperparams, prepare_out, sb3_kwargs, versions, write_config
+from wolfpack.models import MODEL_FILE
+from wolfpack.report.imitation import plot
+from wolfpack.sides import SIDES
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -68,19 +54,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--params", default=None, help="params YAML (default: the documented scenario)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="hyperparameter override of the produced model, e.g. policy_kwargs.net_arch.pi=[128,128]")
-    p.add_argument("--seed", type=seed_int, default=0, help="seed (default 0)")
-    p.add_argument("--num-envs", type=positive_int, default=32, help="worlds collecting data (default 32)")
-    p.add_argument("--rounds", type=positive_int, default=12, help="DAgger rounds, the first one pure expert (default 12)")
-    p.add_argument("--steps-per-round", type=positive_int, default=600, help="world steps collected per round (default 600 = two episode lengths)")
-    p.add_argument("--epochs", type=positive_int, default=8, help="passes over the aggregated data set per round (default 8)")
-    p.add_argument("--batch-size", type=positive_int, default=1024, help="minibatch size (default 1024)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed (default 0)")
+    p.add_argument("--num-envs", type=int_at_least(1), default=32, help="worlds collecting data (default 32)")
+    p.add_argument("--rounds", type=int_at_least(1), default=12, help="DAgger rounds, the first one pure expert (default 12)")
+    p.add_argument("--steps-per-round", type=int_at_least(1), default=600, help="world steps collected per round (default 600 = two episode lengths)")
+    p.add_argument("--epochs", type=int_at_least(1), default=8, help="passes over the aggregated data set per round (default 8)")
+    p.add_argument("--batch-size", type=int_at_least(1), default=1024, help="minibatch size (default 1024)")
     p.add_argument("--lr", type=float, default=5e-4, help="Adam learning rate (default 5e-4)")
     p.add_argument("--beta", type=float, default=0.5, help="β of round 1 (default 0.5)")
     p.add_argument("--decay", type=float, default=0.5, help="β_r = beta·decay^(r−1) (default 0.5)")
     p.add_argument("--log-std", type=float, default=-1.2, help="PPO: log std of the produced policy (default -1.2, std 0.3)")
-    p.add_argument("--eval-episodes", type=positive_int, default=100, help="held-out episodes evaluated after each round (default 100)")
-    p.add_argument("--threads", type=positive_int, default=1, help="native worker threads (default 1)")
-    p.add_argument("--torch-threads", type=positive_int, default=1, help="torch threads (default 1)")
+    p.add_argument("--eval-episodes", type=int_at_least(1), default=100, help="held-out episodes evaluated after each round (default 100)")
+    p.add_argument("--threads", type=int_at_least(1), default=1, help="native worker threads (default 1)")
+    p.add_argument("--torch-threads", type=int_at_least(1), default=1, help="torch threads (default 1)")
     return p
 
 
@@ -107,11 +93,11 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         params = env_params(args.params, args.sets)
-        hp = hyperparams(args.algo, False, args.hps)
+        hp = hyperparams(Path(__file__).with_name("hyperparams.yaml"), args.algo, False, args.hps)
         out = prepare_out(args.out)
         if not 0.0 <= args.beta <= 1.0 or not 0.0 <= args.decay <= 1.0:
-            raise UsageError(f"--beta and --decay must lie in [0, 1], got {args.beta} and {args.decay}")
-    except (UsageError, ValueError) as e:
+            raise ValueError(f"--beta and --decay must lie in [0, 1], got {args.beta} and {args.decay}")
+    except ValueError as e:
         print(f"imitate.py: error: {e}", file=sys.stderr)
         return 2
 
@@ -262,33 +248,6 @@ def fit_value(policy, batch, side: str, act, gamma: float, max_steps: int, args)
             opt.zero_grad()
             loss.backward()
             opt.step()
-
-
-def plot(out: Path, history: list[dict], side: str, path: Path | None = None) -> None:
-    """The held-out capture rate and the cloning loss per DAgger round, into ``path`` (default
-    ``out/imitation.png``); the title names the run folder ``out``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.6))
-    rounds = [h["round"] for h in history]
-    key = "capture_rate"
-    a.plot(rounds, [100 * h["held_out"][key] for h in history], marker="o")
-    a.fill_between(rounds, [100 * h["held_out"]["capture_rate_ci95"][0] for h in history], [100 * h["held_out"]["capture_rate_ci95"][1] for h in history], alpha=0.2)
-    a.set_xlabel("DAgger round")
-    a.set_ylabel("held-out capture rate (%)")
-    a.set_ylim(0, 100)
-    a.grid(alpha=0.3)
-    b.semilogy(rounds, [h["loss"] for h in history], marker="o")
-    b.set_xlabel("DAgger round")
-    b.set_ylabel("behaviour-cloning loss (MSE)")
-    b.grid(alpha=0.3)
-    fig.suptitle(f"{out.name}: imitation ({side})")
-    fig.tight_layout()
-    fig.savefig(path or out / "imitation.png", dpi=120)
-    plt.close(fig)
 
 
 if __name__ == "__main__":

@@ -42,11 +42,10 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import wolfpack  # noqa: E402
-from common import UsageError, env_params, positive_float, positive_int, seed_int  # noqa: E402
-from wolfpack.rllib import env_creator, shared_mapping, side_mapping  # noqa: E402
+import wolfpack
+from wolfpack.cli.args import int_at_least, positive_number
+from wolfpack.learn.sb3 import env_params
+from wolfpack.rllib import env_creator, shared_mapping, side_mapping
 
 ENV_NAME = "wolfpack_parallel"
 LEARNERS = ("all", "wolves", "targets")
@@ -56,20 +55,20 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="rllib_train.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--learners", choices=LEARNERS, default="all", help="who learns (default all: wolves and targets at once)")
     p.add_argument("--policies", choices=("sides", "shared"), default="sides", help="one RLModule per side (default) or one shared by every agent")
-    p.add_argument("--iterations", type=positive_int, default=None, help="PPO iterations (default: until --time-limit, else 100)")
-    p.add_argument("--time-limit", type=positive_float, default=None, metavar="MIN", help="stop after this many minutes (checked after each iteration)")
+    p.add_argument("--iterations", type=int_at_least(1), default=None, help="PPO iterations (default: until --time-limit, else 100)")
+    p.add_argument("--time-limit", type=positive_number, default=None, metavar="MIN", help="stop after this many minutes (checked after each iteration)")
     p.add_argument("--num-env-runners", type=int, default=2, help="sampling actors (0: sample in this process; default 2)")
-    p.add_argument("--envs-per-runner", type=positive_int, default=1, help="worlds per env runner (default 1)")
+    p.add_argument("--envs-per-runner", type=int_at_least(1), default=1, help="worlds per env runner (default 1)")
     p.add_argument("--address", default=None, help="Ray cluster to join ('auto': the one on this machine); default: start a local Ray")
-    p.add_argument("--num-cpus", type=positive_int, default=None, help="CPUs of the local Ray instance (default: all cores)")
-    p.add_argument("--train-batch", type=positive_int, default=4000, help="env steps per PPO update (default 4000)")
-    p.add_argument("--minibatch", type=positive_int, default=500, help="PPO minibatch (default 500)")
-    p.add_argument("--epochs", type=positive_int, default=5, help="PPO epochs per update (default 5)")
-    p.add_argument("--lr", type=positive_float, default=3e-4, help="learning rate (default 3e-4)")
-    p.add_argument("--seed", type=seed_int, default=0, help="run seed: env runner k's world is seeded from it (default 0)")
+    p.add_argument("--num-cpus", type=int_at_least(1), default=None, help="CPUs of the local Ray instance (default: all cores)")
+    p.add_argument("--train-batch", type=int_at_least(1), default=4000, help="env steps per PPO update (default 4000)")
+    p.add_argument("--minibatch", type=int_at_least(1), default=500, help="PPO minibatch (default 500)")
+    p.add_argument("--epochs", type=int_at_least(1), default=5, help="PPO epochs per update (default 5)")
+    p.add_argument("--lr", type=positive_number, default=3e-4, help="learning rate (default 3e-4)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="run seed: env runner k's world is seeded from it (default 0)")
     p.add_argument("--params", default=None, help="params YAML (default: the documented scenario)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
-    p.add_argument("--checkpoint-every", type=positive_int, default=10, metavar="K", help="checkpoint every K iterations (and at the end)")
+    p.add_argument("--checkpoint-every", type=int_at_least(1), default=10, metavar="K", help="checkpoint every K iterations (and at the end)")
     p.add_argument("--out", default="runs/rllib", help="run folder (default runs/rllib; must be new or empty)")
     p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its checkpoint (writes into DIR)")
     return p
@@ -102,19 +101,19 @@ def algorithm_config(args, params: dict):
 
 def check_args(args) -> Path:
     if args.num_env_runners < 0:
-        raise UsageError(f"--num-env-runners must be >= 0, got {args.num_env_runners}")
+        raise ValueError(f"--num-env-runners must be >= 0, got {args.num_env_runners}")
     if args.policies == "shared" and args.learners != "all":
-        raise UsageError("--policies shared needs --learners all (one module for both sides)")
+        raise ValueError("--policies shared needs --learners all (one module for both sides)")
     if args.minibatch > args.train_batch:
-        raise UsageError(f"--minibatch {args.minibatch} exceeds --train-batch {args.train_batch}")
+        raise ValueError(f"--minibatch {args.minibatch} exceeds --train-batch {args.train_batch}")
     if args.resume is not None:
         out = Path(args.resume)
         if not (out / "checkpoint").is_dir() or not (out / "config.yaml").is_file():
-            raise UsageError(f"--resume {out}: no checkpoint/ and config.yaml there")
+            raise ValueError(f"--resume {out}: no checkpoint/ and config.yaml there")
         return out
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise UsageError(f"--out {out}: exists and is not an empty folder (choose a new one, or --resume it)")
+        raise ValueError(f"--out {out}: exists and is not an empty folder (choose a new one, or --resume it)")
     return out
 
 
@@ -160,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
             params = env_params(args.params, args.sets)
             if args.policies == "shared":
                 wolfpack.parallel_env(params, learners="all", shared_space=True)  # fails here, not in an actor
-    except (UsageError, ValueError) as e:
+    except ValueError as e:
         print(f"rllib_train.py: error: {e}", file=sys.stderr)
         return 2
     iterations = args.iterations or (None if args.time_limit else 100)

@@ -59,45 +59,29 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import yaml  # noqa: E402
-from common import (  # noqa: E402
-    HELD_OUT_SEED,
-    SIDES,
-    TARGET_LAWS,
-    WOLF_LAWS,
-    TrainedModel,
-    UsageError,
-    load_model,
-    play,
-    positive_float,
-    positive_int,
-    prepare_out,
-    report,
-    seed_int,
-)
-from wolfpack.batch import resolve_params  # noqa: E402
-from wolfpack.config import parse_override  # noqa: E402
-from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides  # noqa: E402
-from wolfpack.learn.trainer import TRAINER_FILE  # noqa: E402
-from wolfpack.models import (
-    CONFIG_FILE,
-    load_tensors,  # noqa: E402
-)
-from wolfpack.sides import side_action_mode  # noqa: E402
+import yaml
+from wolfpack.batch import resolve_params
+from wolfpack.cli.args import int_at_least, positive_number
+from wolfpack.config import parse_override
+from wolfpack.evaluation import HELD_OUT_SEED, report
+from wolfpack.learn.matches import play
+from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides
+from wolfpack.learn.sb3 import TrainedModel, load_model, prepare_out
+from wolfpack.learn.trainer import TRAINER_FILE
+from wolfpack.models import CONFIG_FILE, load_tensors
+from wolfpack.report.league import league_curves, league_table, members_of, win_rate
+from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES, side_action_mode
 
 LEAGUE_FILE = "league.json"
 #: 2: members trained by ``wolfpack train``'s trainer (1 was SB3's PPO).
 LEAGUE_FORMAT = 2
 SAMPLING = ("latest", "uniform", "prioritised")
-OTHER = {"wolves": "targets", "targets": "wolves"}
 #: PFSP's floor: a member the learner always beats is still met now and then.
 PFSP_FLOOR = 0.02
 
 
 def laws_arg(side: str):
-    allowed = WOLF_LAWS if side == "wolves" else TARGET_LAWS
+    allowed = SCRIPTED_LAWS["wolves"] if side == "wolves" else SCRIPTED_LAWS["targets"]
 
     def parse(text: str) -> list[str]:
         laws = [t for t in text.split(",") if t]
@@ -113,28 +97,28 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="selfplay.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", required=True, help="the league folder")
     p.add_argument("--resume", action="store_true", help="go on with the league in --out (its scenario and fixed members)")
-    p.add_argument("--generations", type=positive_int, default=6, help="generations in the league in all (default 6; with --resume: the new total)")
-    p.add_argument("--time-limit", type=positive_float, default=None, metavar="MIN", help="wall-clock minutes for this invocation, shared over the generations still to run")
-    p.add_argument("--timesteps", type=positive_int, default=200_000_000, help="most agent-steps per generation (default 2e8; the time limit usually ends a generation first)")
+    p.add_argument("--generations", type=int_at_least(1), default=6, help="generations in the league in all (default 6; with --resume: the new total)")
+    p.add_argument("--time-limit", type=positive_number, default=None, metavar="MIN", help="wall-clock minutes for this invocation, shared over the generations still to run")
+    p.add_argument("--timesteps", type=int_at_least(1), default=200_000_000, help="most agent-steps per generation (default 2e8; the time limit usually ends a generation first)")
     p.add_argument("--algo", choices=ALGOS, default="mappo", help="the trainer's algorithm for both sides (default mappo; a new league only)")
     p.add_argument("--first", choices=SIDES, default="targets", help="the side of generation 1 (default targets)")
     p.add_argument("--pool-sampling", choices=SAMPLING, default="prioritised", help="how each rollout's opponent is drawn (default prioritised)")
-    p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=list(WOLF_LAWS), metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
+    p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=list(SCRIPTED_LAWS["wolves"]), metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
     p.add_argument(
         "--fixed-targets", type=laws_arg("targets"), default=["escape"], metavar="LAWS", help="comma-separated target laws in the pool (default escape; random and still teach wolves little)"
     )
     p.add_argument("--member", dest="members", action="append", default=[], metavar="RUN", help="an existing model (run folder) as a fixed member of its side's pool (repeatable)")
     p.add_argument("--init-wolves", default=None, metavar="RUN", help="the wolves' first learner starts from this run of wolfpack train (its trainer.pt: actor, critic, normalisers)")
     p.add_argument("--init-targets", default=None, metavar="RUN", help="the targets' first learner starts from this run of wolfpack train")
-    p.add_argument("--eval-episodes", type=positive_int, default=100, help="held-out episodes per evaluated pair (default 100)")
-    p.add_argument("--num-envs-wolves", type=positive_int, default=None, help="worlds while wolves learn (default: the recipe's)")
-    p.add_argument("--num-envs-targets", type=positive_int, default=None, help="worlds while targets learn (default: the recipe's)")
+    p.add_argument("--eval-episodes", type=int_at_least(1), default=100, help="held-out episodes per evaluated pair (default 100)")
+    p.add_argument("--num-envs-wolves", type=int_at_least(1), default=None, help="worlds while wolves learn (default: the recipe's)")
+    p.add_argument("--num-envs-targets", type=int_at_least(1), default=None, help="worlds while targets learn (default: the recipe's)")
     p.add_argument("--params", default=None, help="params YAML of the league's scenario (default: the documented scenario)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="recipe override for both sides (repeatable; keys: wolfpack/learn/recipes.yaml; a new league only)")
-    p.add_argument("--seed", type=seed_int, default=0, help="seed of the league (training worlds, PPO, sampling; default 0)")
-    p.add_argument("--threads", type=positive_int, default=None, help="the batch's threads (default: all cores; the batch and torch take turns)")
-    p.add_argument("--torch-threads", type=positive_int, default=None, help="torch threads (default: all cores)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the league (training worlds, PPO, sampling; default 0)")
+    p.add_argument("--threads", type=int_at_least(1), default=None, help="the batch's threads (default: all cores; the batch and torch take turns)")
+    p.add_argument("--torch-threads", type=int_at_least(1), default=None, help="torch threads (default: all cores)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
 
@@ -167,7 +151,7 @@ def new_league(args, params: dict, out: Path) -> dict:
         fixed.append({"name": Path(run).resolve().name, "side": m.side, "kind": "model", "generation": 0, "path": os.path.relpath(Path(run).resolve(), out.resolve()), "fixed": True})
     names = [m["name"] for m in fixed]
     if len(set(names)) != len(names):
-        raise UsageError(f"two fixed members share a name: {sorted(n for n in names if names.count(n) > 1)[0]!r}")
+        raise ValueError(f"two fixed members share a name: {sorted(n for n in names if names.count(n) > 1)[0]!r}")
     return {
         "format": LEAGUE_FORMAT,
         "algo": args.algo,
@@ -181,18 +165,6 @@ def new_league(args, params: dict, out: Path) -> dict:
         "evaluations": [],
         "commands": [],
     }
-
-
-def members_of(league: dict, side: str) -> list[dict]:
-    return [m for m in league["members"] if m["side"] == side]
-
-
-def win_rate(league: dict, member: str, side: str, opponent: str) -> float | None:
-    """``member``'s (of ``side``) win rate against ``opponent`` in the league table, or None."""
-    for e in league["evaluations"]:
-        if (e["wolves"], e["targets"]) == ((member, opponent) if side == "wolves" else (opponent, member)):
-            return e["capture_rate"] if side == "wolves" else 1.0 - e["capture_rate"]
-    return None
 
 
 def sampling_weights(league: dict, side: str, learner: str | None, pool: list[dict], how: str) -> list[float]:
@@ -244,13 +216,13 @@ def start_state(out: Path, league: dict, side: str) -> tuple[dict | None, str | 
     else:
         return None, None
     if not path.is_file():
-        raise UsageError(f"{path}: missing (the learner state a generation of the {side} starts from)")
+        raise ValueError(f"{path}: missing (the learner state a generation of the {side} starts from)")
     try:
         state = load_tensors(path)
     except ValueError as e:
-        raise UsageError(str(e)) from None
+        raise ValueError(str(e)) from None
     if side not in state.get("learners", {}):
-        raise UsageError(f"{path}: holds no learner of the {side}")
+        raise ValueError(f"{path}: holds no learner of the {side}")
     return state["learners"][side], Path(label).name
 
 
@@ -261,7 +233,7 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
     from wolfpack.learn.run import default_threads
     from wolfpack.learn.trainer import Trainer, TrainSpec
 
-    pool = [Member(m, out) for m in members_of(league, OTHER[side])]
+    pool = [Member(m, out) for m in members_of(league, OTHER_SIDE[side])]
     state, started_from = start_state(out, league, side)
     weights = sampling_weights(league, side, started_from, [m.entry for m in pool], args.pool_sampling)
     drawn: dict[str, int] = {}
@@ -303,7 +275,7 @@ def run_generation(args, out: Path, league: dict, k: int, side: str, deadline: f
         try:
             trainer.start_from({side: state})
         except ValueError as e:
-            raise UsageError(f"generation {k}: {e}") from None
+            raise ValueError(f"generation {k}: {e}") from None
     summary = trainer.run()
     if summary["updates"] == 0:
         return None
@@ -350,7 +322,7 @@ def evaluate_member(args, out: Path, league: dict, entry: dict, progress=None, a
     episodes."""
     me = Member(entry, out)
     rows = []
-    for other in members_of(league, OTHER[entry["side"]]) if against is None else against:
+    for other in members_of(league, OTHER_SIDE[entry["side"]]) if against is None else against:
         them = Member(other, out)
         wolves, targets = (me, them) if entry["side"] == "wolves" else (them, me)
         results = play(league["params"], wolves.player, targets.player, episodes=args.eval_episodes, seed=HELD_OUT_SEED, threads=args.threads)
@@ -359,106 +331,6 @@ def evaluate_member(args, out: Path, league: dict, entry: dict, progress=None, a
         if progress is not None:
             progress(1)
     return rows
-
-
-# --- reports -----------------------------------------------------------------------------------
-
-
-def league_table(league: dict, steps_header: str = "timesteps") -> str:
-    """Markdown: wolf members (rows) × target members (columns), capture rates; then one row per
-    generation. ``steps_header`` names what a generation's ``timesteps`` count (RESULTS.md calls
-    the native trainer's agent-steps by their name)."""
-    wolves, targets = members_of(league, "wolves"), members_of(league, "targets")
-    lines = [
-        "capture rate (held-out episodes; rows: wolves, columns: targets; blank: not played)",
-        "",
-        "| wolves \\ targets | " + " | ".join(t["name"] for t in targets) + " |",
-        "|---|" + "---|" * len(targets),
-    ]
-    for w in wolves:
-        cells = []
-        for t in targets:
-            rate = win_rate(league, w["name"], "wolves", t["name"])
-            cells.append("" if rate is None else f"{rate:.0%}")
-        lines.append(f"| {w['name']} | " + " | ".join(cells) + " |")
-    lines += ["", f"| generation | side | {steps_header} | wall (min) | started from | opponents drawn |", "|---|---|---|---|---|---|"]
-    for g in league["generations"]:
-        drawn = ", ".join(f"{k} ×{v}" for k, v in sorted(g["opponents_drawn"].items(), key=lambda kv: -kv[1]))
-        lines.append(f"| {g['generation']} | {g['side']} | {g['timesteps']:,} | {g['wall_s'] / 60:.1f} | {g['started_from'] or 'fresh'} | {drawn} |")
-    return "\n".join(lines) + "\n"
-
-
-#: The sides' colours, as the trajectories draw them (wolves blue, targets red).
-WOLF_COLOUR, TARGET_COLOUR = "#1f77b4", "crimson"
-#: The opponents' markers in the league's curves, one each (in turn beyond ten).
-MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
-
-
-def league_curves(out: Path, league: dict) -> None:
-    import csv
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-    from wolfpack.plots import line_styles
-
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.6), layout="constrained")
-    for ax, side in zip(axes[:2], SIDES):
-        mine = [m for m in members_of(league, side) if m["kind"] == "model"]
-        theirs = members_of(league, OTHER[side])
-        # Two opponents often give a member the same rate (0 % against two laws, say): each
-        # opponent's points are shifted sideways by its own small amount and drawn with its own
-        # marker, so that coincident points stay visible side by side.
-        spread = min(0.3, 0.06 * len(theirs))
-        for k, (opp, (colour, style)) in enumerate(zip(theirs, line_styles(len(theirs)))):
-            dodge = spread * (k / max(len(theirs) - 1, 1) - 0.5)
-            pts = [(m["generation"], win_rate(league, m["name"], side, opp["name"])) for m in mine]
-            pts = [(g + dodge, 100 * w) for g, w in pts if w is not None]
-            if pts:
-                ax.plot(*zip(*pts), marker=MARKERS[k % len(MARKERS)], markersize=5, color=colour, linestyle=style, label=f"vs {opp['name']}")
-        ax.set_title(f"{side} members: {'capture' if side == 'wolves' else 'survival'} rate (held-out; points dodged sideways)", fontsize=10)
-        ax.set_xlabel("generation")
-        last = max([g["generation"] for g in league["generations"]] + [1])
-        first = min([m["generation"] for m in mine] + [1])  # 0: a borrowed model (--member)
-        ax.set_xlim(first - 0.5, last + 0.5)
-        ax.set_xticks(range(first, last + 1))  # generations are whole numbers, however few
-        if not mine:
-            ax.text(0.5, 0.5, f"no learned {side} in this league", ha="center", va="center", transform=ax.transAxes, color="0.4")
-        ax.set_ylabel("%")
-        ax.set_ylim(-2, 102)
-        ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
-    ax = axes[2]
-    offset = 0
-    for g in league["generations"]:
-        path = out / "generations" / f"{g['generation']:02d}" / "progress.csv"
-        if not path.is_file():
-            continue
-        with path.open() as f:
-            reader = csv.DictReader(f)
-            # The native trainer's log, or SB3's logger (leagues of format 1).
-            x_key, y_key = ("agent_steps", f"{g['side']}_return") if "agent_steps" in (reader.fieldnames or []) else ("time/total_timesteps", "rollout/ep_rew_mean")
-            rows = [r for r in reader if r.get(y_key)]
-        if rows:
-            xs = [offset + float(r[x_key]) / 1e6 for r in rows]
-            ys = [float(r[y_key]) for r in rows]
-            colour = WOLF_COLOUR if g["side"] == "wolves" else TARGET_COLOUR
-            # Each rollout meets another opponent: the raw curve is noisy, its running mean
-            # over 20 rollouts is the trend.
-            ax.plot(xs, ys, color=colour, alpha=0.25, linewidth=0.8)
-            window = 20
-            smooth = [sum(ys[max(0, i - window + 1) : i + 1]) / len(ys[max(0, i - window + 1) : i + 1]) for i in range(len(ys))]
-            ax.plot(xs, smooth, color=colour, linewidth=1.8)
-        offset += g["timesteps"] / 1e6
-    ax.set_title("training return per episode (line: mean of 20 rollouts)", fontsize=10)
-    ax.legend(handles=[Line2D([], [], color=WOLF_COLOUR, label="wolves learn"), Line2D([], [], color=TARGET_COLOUR, label="targets learn")], fontsize=7, loc="best")
-    ax.set_xlabel("league agent-steps (millions)")
-    ax.grid(alpha=0.3)
-    fig.savefig(out / "league_curves.png", dpi=120)
-    plt.close(fig)
 
 
 # --- main --------------------------------------------------------------------------------------
@@ -470,23 +342,23 @@ def main(argv: list[str] | None = None) -> int:
         out = Path(args.out)
         if (out / LEAGUE_FILE).is_file():
             if not args.resume:
-                raise UsageError(f"--out {out} already holds a league ({LEAGUE_FILE}); --resume to go on with it, or choose another folder")
+                raise ValueError(f"--out {out} already holds a league ({LEAGUE_FILE}); --resume to go on with it, or choose another folder")
             league = json.loads((out / LEAGUE_FILE).read_text())
             if league.get("format") != LEAGUE_FORMAT:
-                raise UsageError(f"--resume: {out / LEAGUE_FILE} is a league of an older format ({league.get('format')}, trained with SB3); start a new league")
+                raise ValueError(f"--resume: {out / LEAGUE_FILE} is a league of an older format ({league.get('format')}, trained with SB3); start a new league")
             if args.params is not None or args.sets or args.hps:
-                raise UsageError("--resume goes on in the league's own scenario and recipe: no --params/--set/--hp")
+                raise ValueError("--resume goes on in the league's own scenario and recipe: no --params/--set/--hp")
         else:
             if args.resume:
-                raise UsageError(f"--resume: no {LEAGUE_FILE} in {out}")
+                raise ValueError(f"--resume: no {LEAGUE_FILE} in {out}")
             for flag, init in (("--init-wolves", args.init_wolves), ("--init-targets", args.init_targets)):
                 if init is not None:
                     load_model(init)  # fails early, naming the file
                     if not (Path(init) / TRAINER_FILE).is_file():
-                        raise UsageError(f"{flag} {init}: not a run of wolfpack train (no {TRAINER_FILE}); a generation starts from a trainer's state")
+                        raise ValueError(f"{flag} {init}: not a run of wolfpack train (no {TRAINER_FILE}); a generation starts from a trainer's state")
             league = new_league(args, league_params(args), out)
         prepare_out(out)
-    except (UsageError, ValueError) as e:
+    except ValueError as e:
         print(f"selfplay.py: error: {e}", file=sys.stderr)
         return 2
 
@@ -506,7 +378,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         while len(league["generations"]) < args.generations:
             k = len(league["generations"]) + 1
-            side = league["first"] if k % 2 == 1 else OTHER[league["first"]]
+            side = league["first"] if k % 2 == 1 else OTHER_SIDE[league["first"]]
             left = args.generations - k + 1
             # This generation's share of what is left, keeping ~10 % of it for the evaluations.
             deadline = None if end is None else time.perf_counter() + 0.9 * max(0.0, end - time.perf_counter()) / left
@@ -516,13 +388,13 @@ def main(argv: list[str] | None = None) -> int:
             print(f"generation {k}/{args.generations}: {side} learn ({args.pool_sampling} opponents)", file=sys.stderr)
             try:
                 done = run_generation(args, out, league, k, side, deadline, rng)
-            except UsageError as e:
+            except ValueError as e:
                 print(f"selfplay.py: error: {e}", file=sys.stderr)
                 return 2
             if done is None:
                 break
             entry = done["member"]
-            pool_size = len(members_of(league, OTHER[side]))
+            pool_size = len(members_of(league, OTHER_SIDE[side]))
             with tqdm(total=pool_size, unit="pair", desc=f"evaluate {entry['name']}", disable=args.no_progress or not sys.stderr.isatty()) as bar:
                 rows = evaluate_member(args, out, league, entry, bar.update)
             league["members"].append(entry)

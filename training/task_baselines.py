@@ -36,13 +36,11 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from seeds import iqm_interval  # noqa: E402
-from sweep import held_out, train_once  # noqa: E402
-from wolfpack.evaluation import HELD_OUT_SEED  # noqa: E402
-from wolfpack.scorecard import DEFAULT_EPISODES, LEARNED_FILE, as_policy, score_task  # noqa: E402
-from wolfpack.task import TASK_ORDER  # noqa: E402
+from wolfpack.evaluation import HELD_OUT_SEED
+from wolfpack.learn.runs import held_out, train
+from wolfpack.scorecard import DEFAULT_EPISODES, LEARNED_FILE, as_policy, score_task
+from wolfpack.stats import iqm_interval
+from wolfpack.task import TASK_ORDER
 
 #: (name, side, algorithm) of each learner.
 LEARNERS = (("ippo-wolves", "wolves", "ippo"), ("mappo-wolves", "wolves", "mappo"), ("mappo-escaper", "targets", "mappo"))
@@ -103,7 +101,9 @@ def main(argv: list[str] | None = None) -> int:
         for name, side, algo in learners:
             for seed in range(args.seeds):
                 folder = run_folder(args.keep, task, name, seed)
-                summary = train_once(folder, ["--side", side, "--algo", algo, "--task", task, "--timesteps", str(budgets[side]), "--seed", str(seed), "--evaluations", "2"])
+                print(f"[{time.strftime('%H:%M:%S')}] {task} {name} seed {seed}", file=sys.stderr, flush=True)
+                options = ["--side", side, "--algo", algo, "--task", task, "--timesteps", str(budgets[side]), "--seed", str(seed), "--evaluations", "2"]
+                summary = train(folder, options, log=folder.with_name(folder.name + ".log"))
                 row = held_out_row(folder, side, task, args.episodes, args.reevaluate)
                 runs.append(
                     {

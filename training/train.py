@@ -42,52 +42,36 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import yaml
+from wolfpack.cli.args import int_at_least
+from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
+from wolfpack.learn.sb3 import Stopwatch, algorithms, env_params, hyperparams, load_model, observation_size, prepare_out, sb3_kwargs, versions, write_config
+from wolfpack.models import MODEL_FILE
+from wolfpack.sides import SIDES
 
-import yaml  # noqa: E402
-from common import (  # noqa: E402
-    HELD_OUT_SEED,
-    HYPERPARAMS_PATH,
-    MODEL_FILE,
-    SIDES,
-    TRAIN_SEED_BASE,
-    Stopwatch,
-    UsageError,
-    algorithms,
-    env_params,
-    hyperparams,
-    load_model,
-    observation_size,
-    positive_int,
-    prepare_out,
-    report,
-    rollout,
-    sb3_kwargs,
-    seed_int,
-    versions,
-    write_config,
-)
+#: The SB3 hyperparameters: each algorithm's section, and its fine-tuning section.
+HYPERPARAMS_PATH = Path(__file__).with_name("hyperparams.yaml")
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="train.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--side", required=True, choices=SIDES, help="which side learns; the other follows its scripted law")
     p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm (default ppo)")
-    p.add_argument("--timesteps", required=True, type=positive_int, help="training budget in agent-steps")
+    p.add_argument("--timesteps", required=True, type=int_at_least(1), help="training budget in agent-steps")
     p.add_argument("--params", default=None, help="params YAML (default: the documented scenario, or with --init-from the source run's params)")
     p.add_argument(
         "--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override, e.g. policies.targets=random (repeatable; with --init-from, applied to the source run's params)"
     )
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="hyperparameter override, e.g. learning_rate=1e-4 (repeatable)")
-    p.add_argument("--seed", type=seed_int, default=0, help="seed of the training worlds and of torch (default 0)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the training worlds and of torch (default 0)")
     p.add_argument("--out", required=True, help="run folder")
     p.add_argument("--init-from", default=None, metavar="DIR", help="start from this run's model (e.g. imitate.py's output)")
-    p.add_argument("--num-envs", type=positive_int, default=None, help="worlds in the VecEnv (default: hyperparams.yaml num_envs.<side>)")
-    p.add_argument("--eval-freq", type=positive_int, default=None, help="held-out evaluation every this many timesteps (default timesteps/10, and with --time-limit every tenth of it too)")
-    p.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per held-out evaluation (default 100)")
-    p.add_argument("--checkpoint-freq", type=positive_int, default=None, help="checkpoint every this many timesteps (default timesteps/5, and with --time-limit every fifth of it too)")
-    p.add_argument("--threads", type=positive_int, default=1, help="native worker threads for the VecEnv (default 1)")
-    p.add_argument("--torch-threads", type=positive_int, default=1, help="torch intra-op threads (default 1: small MLPs run fastest so)")
+    p.add_argument("--num-envs", type=int_at_least(1), default=None, help="worlds in the VecEnv (default: hyperparams.yaml num_envs.<side>)")
+    p.add_argument("--eval-freq", type=int_at_least(1), default=None, help="held-out evaluation every this many timesteps (default timesteps/10, and with --time-limit every tenth of it too)")
+    p.add_argument("--eval-episodes", type=int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
+    p.add_argument("--checkpoint-freq", type=int_at_least(1), default=None, help="checkpoint every this many timesteps (default timesteps/5, and with --time-limit every fifth of it too)")
+    p.add_argument("--threads", type=int_at_least(1), default=1, help="native worker threads for the VecEnv (default 1)")
+    p.add_argument("--torch-threads", type=int_at_least(1), default=1, help="torch intra-op threads (default 1: small MLPs run fastest so)")
     p.add_argument("--time-limit", type=float, default=None, metavar="MINUTES", help="stop learning after this many minutes of wall time (the model is saved as usual)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
@@ -294,13 +278,13 @@ def learning_curve(out: Path, history: list[dict], side: str) -> None:
 
 
 def check_same_spaces(source, params: dict, side: str) -> None:
-    """UsageError unless ``params`` gives the learning side the observation size and action
+    """ValueError unless ``params`` gives the learning side the observation size and action
     mode that ``source`` was trained with (its weights would not fit, or would mean something
     else)."""
     ours = (observation_size(params, side), params["env"]["action_mode"])
     theirs = (int(source.model.observation_space.shape[0]), source.params["env"]["action_mode"])
     if theirs != ours:
-        raise UsageError(f"--init-from {source.path.parent}: that model takes {theirs[0]} observations in {theirs[1]!r} action mode, these params give {ours[0]} in {ours[1]!r} mode")
+        raise ValueError(f"--init-from {source.path.parent}: that model takes {theirs[0]} observations in {theirs[1]!r} action mode, these params give {ours[0]} in {ours[1]!r} mode")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -308,7 +292,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         source = load_model(args.init_from) if args.init_from else None
         if source is not None and (source.side != args.side or source.algo != args.algo):
-            raise UsageError(f"--init-from {args.init_from}: that model is {source.algo} for {source.side}, this run is {args.algo} for {args.side}")
+            raise ValueError(f"--init-from {args.init_from}: that model is {source.algo} for {source.side}, this run is {args.algo} for {args.side}")
         # Fine-tuning continues on the source run's scenario (action mode, counts, opponent...):
         # a policy cloned in velocity mode means nothing in unicycle mode. --params replaces
         # that scenario, --set changes it.
@@ -316,14 +300,14 @@ def main(argv: list[str] | None = None) -> int:
         params = env_params(base, args.sets)
         if source is not None:
             check_same_spaces(source, params, args.side)
-        hp = hyperparams(args.algo, source is not None, args.hps)
+        hp = hyperparams(HYPERPARAMS_PATH, args.algo, source is not None, args.hps)
         if source is not None:
             # The architecture must be the source's, or its weights do not fit.
             hp["policy_kwargs"] = source.config["hyperparams"].get("policy_kwargs", {})
         table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
         num_envs = args.num_envs or int(table["num_envs"][args.side])
         out = prepare_out(args.out)
-    except (UsageError, ValueError) as e:
+    except ValueError as e:
         print(f"train.py: error: {e}", file=sys.stderr)
         return 2
 

@@ -19,6 +19,7 @@ from wolfpack import _core
 from wolfpack._checks import check_flag, check_index, check_int, check_seed, check_threads
 from wolfpack.config import apply_overrides, check_tree, load_params
 from wolfpack.opponents import Opponent, as_opponent, drivers, opponent_side
+from wolfpack.sides import SIDES
 from wolfpack.task import task_params
 
 LEARNERS: tuple[str, ...] = tuple(_core.LEARNERS)
@@ -115,7 +116,7 @@ def observation_layout(side: str, params: str | Path | Mapping[str, Any] | None 
     ``obstacle_rows`` and ``wall_rows``, each with ``rows`` (its capacity) and ``row_size``
     (the entries of a row, named by :data:`ENTITY_FIELDS`; docs/interface.md, "Entity
     observations")."""
-    if side not in ("wolves", "targets"):
+    if side not in SIDES:
         raise ValueError(f"side must be 'wolves' or 'targets', got {side!r}")
     check_override_keywords(overrides)
     return _core.observation_layout(resolve_params(params, overrides, task), side)

@@ -147,3 +147,28 @@ def report(results: list[dict], wolves: str, targets: str) -> dict:
         "mean_targets_captured": float(statistics.fmean(r["targets_captured"] for r in results)) if n else 0.0,
         "capture_steps": captured,
     }
+
+
+#: The columns of a cross-play matrix's cell (``training/evaluate.py --matrix``): a report's
+#: rates, intervals and means, without its per-episode lists.
+MATRIX_KEYS = (
+    "wolves",
+    "targets",
+    "episodes",
+    "first_seed",
+    "capture_rate",
+    "capture_rate_ci95",
+    "survival_rate",
+    "median_capture_steps",
+    "mean_capture_steps",
+    "collision_rate",
+    "target_collision_rate",
+    "timeout_rate",
+    "cornered_rate",
+    "success_rate",
+    "ever_cornered_rate",
+    "mean_energy",
+    "mean_return_wolves",
+    "mean_return_targets",
+    "median_final_target_wall_distance",
+)

@@ -26,6 +26,7 @@ given observations of another size is a ValueError naming both sizes.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -387,3 +388,21 @@ def load_policy(where: str | Path, side: str | None = None) -> SavedPolicy:
     if side is not None and policy.side not in (None, side):
         raise ValueError(f"model {where}: trained for the {policy.side}, not the {side}")
     return policy
+
+
+def expand_models(paths: list[str]) -> list[str]:
+    """Run folders and zips as they are; a selfplay.py league folder becomes its learned
+    members (those it trained; the models it borrowed are given on their own); a run of
+    ``wolfpack train`` in which both sides learned becomes its two models."""
+    out = []
+    for p in paths:
+        league = Path(p) / "league.json"
+        native = native_model_folders(p)
+        if len(native) > 1:
+            out += [str(folder) for folder in native.values()]
+        elif league.is_file():
+            doc = json.loads(league.read_text())
+            out += [str(Path(p) / m["path"]) for m in doc["members"] if m["kind"] == "model" and not m.get("fixed")]
+        else:
+            out.append(p)
+    return out

@@ -41,7 +41,7 @@ from typing import Any, Callable
 import numpy as np
 
 from wolfpack.models import find_model, load_policy, load_sb3, native_model_folders, read_config, run_label, sample_sb3
-from wolfpack.sides import ACTION_MODES, SCRIPTED_LAWS, SIDES, bring_observation, law_side, mode_key, side_action_mode, side_observation
+from wolfpack.sides import ACTION_MODES, OTHER_SIDE, SCRIPTED_LAWS, SIDES, bring_observation, law_side, mode_key, side_action_mode, side_observation
 
 
 class Opponent:
@@ -221,7 +221,7 @@ def opponent_side(opponent: Opponent, learners: str) -> str:
     it would drive a side that learns."""
     if learners == "all":
         raise ValueError("opponent: with learners='all' both sides learn, so there is no side for an opponent to drive")
-    free = {"wolves": "targets", "targets": "wolves"}.get(learners)
+    free = OTHER_SIDE.get(learners)
     side = opponent.side or free
     if side is None:
         raise ValueError(f"opponent {opponent.name!r}: with learners='none' say which side it drives (Opponent(..., side='wolves' or 'targets'))")

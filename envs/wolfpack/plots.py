@@ -22,14 +22,16 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon, Rectangle
 from matplotlib.ticker import MaxNLocator
 
-OUTCOMES = ("captured", "cornered", "collision", "timeout")
-#: Each outcome's colour in every picture (summary.png, the viewer's timeline and badges).
+#: Each ending outcome's colour in every picture (summary.png, the viewer's timeline and badges),
+#: in the order the pictures list them (the outcomes themselves: ``wolfpack.OUTCOMES``).
 OUTCOME_COLOURS = {"captured": "tab:green", "cornered": "tab:olive", "collision": "tab:red", "timeout": "tab:gray"}
 _TARGET_COLOUR = "crimson"
 # The wolves' family: blues, teals and greens, far from the target's red (no orange, brown,
 # pink or purple, which read as red beside it), dark and light alternating so that neighbours
 # differ.
 _WOLF_COLOURS = ("#1f77b4", "#17becf", "#2ca02c", "#08306b", "#74add1", "#00665e", "#66c2a4", "#3f5f9f", "#41ab5d")
+#: Each side's colour where a picture shows the sides rather than the agents (a league's curves).
+SIDE_COLOURS = {"wolves": _WOLF_COLOURS[0], "targets": _TARGET_COLOUR}
 #: How a collision is marked on a trajectory: where the wolf stood when it ended the episode.
 _COLLISION_MARK = {"marker": "X", "markersize": 11, "markerfacecolor": "black", "markeredgecolor": "white", "linestyle": "none"}
 _LINE_STYLES = ("-", "--", ":", "-.")
@@ -220,7 +222,7 @@ def plot_summary(details: Sequence[Mapping[str, Any]], path: Path) -> None:
     ``summary.json``'s ``episodes_detail`` entries."""
     counts = Counter(d["outcome"] for d in details)
     capture_steps = [d["capture_step"] for d in details if d["outcome"] == "captured"]
-    shown = [o for o in OUTCOMES if o != "cornered" or counts.get(o)]
+    shown = [o for o in OUTCOME_COLOURS if o != "cornered" or counts.get(o)]
 
     fig = Figure(figsize=(9.0, 3.6), dpi=_DPI, layout="constrained")
     ax_bar, ax_hist = fig.subplots(1, 2)

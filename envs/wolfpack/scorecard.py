@@ -42,7 +42,7 @@ from wolfpack.batch import ObservationSizeError
 from wolfpack.evaluation import HELD_OUT_SEED, report, rollout, wilson_interval
 from wolfpack.generalisation import VARIATION_ORDER, check_variation, variation_params
 from wolfpack.opponents import Opponent
-from wolfpack.sides import SIDES
+from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES
 from wolfpack.task import TASK_ORDER, check_task, outcome_changes, task_params
 
 #: The committed baselines: the analytic laws, and the learners' IQMs over training seeds.
@@ -52,7 +52,6 @@ LEARNED_FILE = Path(__file__).with_name("learned.json")
 DEFAULT_EPISODES = 200
 #: What each side is scored on: the report's key and how tables name it.
 SKILL = {"wolves": ("capture_rate", "captured"), "targets": ("survival_rate", "survived")}
-OTHER = {"wolves": "targets", "targets": "wolves"}
 
 
 def as_policy(policy: Any, side: str) -> Opponent:
@@ -85,14 +84,14 @@ def score_task(
     (:func:`wolfpack.evaluation.report`) with ``score`` and ``score_ci95`` added, or
     ``{"skipped": reason}`` when its observation does not fit the task."""
     params = task_params(check_task(task), overrides) if params is None else params
-    other_law = params["policies"][OTHER[side]]
+    other_law = params["policies"][OTHER_SIDE[side]]
     try:
         results = rollout(params, episodes=episodes, seed=seed, threads=threads, opponent=policy, progress=progress)
     except ObservationSizeError as error:
         if progress is not None:
             progress(episodes)
         return {"skipped": error.reason or f"it takes {error.wanted} observations, the {side} of {task} have {error.here}"}
-    names = {side: policy.name, OTHER[side]: other_law}
+    names = {side: policy.name, OTHER_SIDE[side]: other_law}
     row = report(results, names["wolves"], names["targets"])
     row.pop("capture_steps")
     key = SKILL[side][0]
@@ -249,9 +248,9 @@ def generalisation_scorecard(
     return card
 
 
-#: The laws each side is ranked against on the generalisation track: the pursuit laws, and the
+#: The laws each side is ranked against on the generalisation track: every pursuit law, and the
 #: one target law that evades (random and still are not opponents worth a rank).
-TRACK_LAWS = {"wolves": ("seed000", "bvc", "formation"), "targets": ("escape",)}
+TRACK_LAWS = {"wolves": SCRIPTED_LAWS["wolves"], "targets": ("escape",)}
 
 
 def track_rivals(driver: Opponent, side: str) -> list[str]:
@@ -304,7 +303,7 @@ def _versions() -> dict:
 def markdown(card: dict) -> str:
     """The scorecard as a Markdown table, one row per task."""
     side, (_, verb) = card["side"], SKILL[card["side"]]
-    other = OTHER[side]
+    other = OTHER_SIDE[side]
     track = card.get("track") == "generalisation"
     lines = [
         f"# Scorecard: {card['policy']} ({side}){' on modified tasks' if card.get('modified_task') else ''}{', generalisation track' if track else ''}",

@@ -9,6 +9,8 @@ from typing import Any
 from wolfpack import _core
 
 SIDES = ("wolves", "targets")
+#: Each side's opponents.
+OTHER_SIDE = {"wolves": "targets", "targets": "wolves"}
 #: The scripted laws each side can follow, by name (the core's own lists).
 SCRIPTED_LAWS: dict[str, tuple[str, ...]] = {"wolves": tuple(_core.WOLF_LAWS), "targets": tuple(_core.TARGET_LAWS)}
 ACTION_MODES = ("unicycle", "velocity")

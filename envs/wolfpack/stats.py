@@ -23,3 +23,13 @@ def iqm_interval(values: Sequence[float], resamples: int = 10_000) -> dict:
     else:
         lo = hi = iqm
     return {"iqm": iqm, "ci95": [lo, hi], "median": float(np.median(x)), "min": float(x.min()), "max": float(x.max()), "n": int(len(x))}
+
+
+def iqm_cell(summary: dict) -> str:
+    """``95.5 % [95.0, 96.8]``: an ``iqm_interval`` as seeds.md and RESULTS.md print it."""
+    return f"{100 * summary['iqm']:.1f} % [{100 * summary['ci95'][0]:.1f}, {100 * summary['ci95'][1]:.1f}]"
+
+
+def range_cell(summary: dict) -> str:
+    """``95.0 % (95.0–97.0)``: the median over seeds and their range."""
+    return f"{100 * summary['median']:.1f} % ({100 * summary['min']:.1f}–{100 * summary['max']:.1f})"

@@ -35,6 +35,7 @@ import numpy as np
 from wolfpack._checks import check_seed
 from wolfpack._optional import require
 from wolfpack.batch import OUTCOMES, BatchEnv
+from wolfpack.sides import SIDES
 
 require("torchrl", "the TorchRL view (wolfpack.torchrl_env)")  # brings torch and tensordict
 import torch  # noqa: E402
@@ -43,7 +44,6 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded  # noqa: E40
 from torchrl.envs import EnvBase  # noqa: E402
 
 #: The groups, in the batch's agent order, and what one agent of each is called.
-SIDES = ("wolves", "targets")
 AGENT = {"wolves": "wolf", "targets": "target"}
 
 

@@ -6,8 +6,8 @@ in about the proportions that matter to them: scripted episodes of every wolf la
 behind ``wolfpack hunt``), the native batch with either side learning at small and large E
 (observations included), the SB3 VecEnv and the PettingZoo env, and a few rendered frames.
 Code that never runs here is compiled as cold, so each public path gets at least a little
-work. Prints what it ran and which extension it ran on (the instrumented one must be first on
-``sys.path``).
+work. Prints what it ran and which extension it ran on (the instrumented one must be the one
+Python imports).
 """
 
 from __future__ import annotations

@@ -43,6 +43,17 @@ def positive_minutes(text: str) -> float:
     return value
 
 
+def positive_number(text: str) -> float:
+    """A finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return value
+
+
 def folder(text: str) -> str:
     """A path argument that must name something: ``--out ''`` is an error, not "no --out"."""
     if not text.strip():

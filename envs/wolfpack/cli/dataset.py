@@ -11,6 +11,7 @@ from typing import Sequence
 from wolfpack import dataset
 from wolfpack._checks import MAX_THREADS
 from wolfpack.cli.args import folder, int_at_least
+from wolfpack.sides import SIDES
 from wolfpack.task import TASK_ORDER
 
 DATASET_DESCRIPTION = """\
@@ -51,7 +52,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--task", required=True, metavar="NAME", choices=TASK_ORDER, help=f"the task: {', '.join(TASK_ORDER)}")
     p.add_argument("--policy", required=True, metavar="LAW_OR_MODEL", help="a law's name or a saved model")
-    p.add_argument("--side", choices=("wolves", "targets"), default=None, help="the side the policy plays (default: the law's or the model's)")
+    p.add_argument("--side", choices=SIDES, default=None, help="the side the policy plays (default: the law's or the model's)")
     p.add_argument("--episodes", required=True, metavar="N", type=int_at_least(1, 1_000_000), help="episodes to record")
     p.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="episode k is world S + k (default 0)")
     p.add_argument("--format", dest="fmt", choices=("auto", "minari", "npz"), default="auto", help="auto (default): Minari for a target on a one-target task, else npz")

@@ -100,7 +100,7 @@ class RunWriter:
         details = summary.get("episodes_detail") or []
         n = summary.get("episodes", len(details))
         outcomes = [d["outcome"] for d in details]
-        counts = ", ".join(f"{outcomes.count(o)} {o}" for o in self.plotting.OUTCOMES if o in outcomes)
+        counts = ", ".join(f"{outcomes.count(o)} {o}" for o in self.plotting.OUTCOME_COLOURS if o in outcomes)
         seeds = f", seeds {details[0]['seed']}..{details[-1]['seed']}" if details else ""
         shown = f"the first {len(self.pages)} of {n} episodes" if len(self.pages) < n else f"all {n} episodes"
         subtitle = f"{w['wolves']} {pol['wolves']} wolves vs {w['targets']} {pol['targets']} target(s){seeds}: {counts}; showing {shown}"

@@ -12,6 +12,7 @@ from wolfpack.cli.args import folder, int_at_least, positive_minutes
 from wolfpack.learn.recipes import ALGOS, LEARNERS
 from wolfpack.learn.run import DEVICES, run_training
 from wolfpack.learn.tasks import TASK_WEIGHTS, VARIANTS, parse_vary
+from wolfpack.sides import SIDES
 from wolfpack.task import TASK_ORDER
 
 TRAIN_DESCRIPTION = """\
@@ -179,7 +180,7 @@ def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
     final = summary.get("final_evaluation") or {}
     rate = summary["this_invocation"]["agent_steps_per_s"] or 0
     line = f"{summary['learners']} {summary['algo']}: {summary['agent_steps']:,} agent-steps, {summary['train_s'] / 60:.1f} min, {rate / 1000:.0f}k agent-steps/s"
-    for side in ("wolves", "targets"):
+    for side in SIDES:
         if side in final:
             r = final[side]
             shown = "capture" if side == "wolves" else "survival"

@@ -25,6 +25,8 @@ import math
 import numpy as np
 import torch
 
+from wolfpack.sides import SIDES
+
 #: Samples kept per side (the newest), and the fit's settings: chosen so that a round's fit
 #: takes about as long as its rollout on 2 cores.
 CAPACITY = 1_000_000
@@ -91,7 +93,7 @@ def _dagger_step(env, out: dict, learners: dict, data: dict, beta: float, rng: n
     """One step of a DAgger round on ``env`` from its outputs ``out``: the law's labels into
     ``data``, each agent driven by the law with probability ``beta``, else by the policy's mean.
     Returns the step's outputs."""
-    experts = dict(zip(("wolves", "targets"), env.expert_actions()))
+    experts = dict(zip(SIDES, env.expert_actions()))
     actions = {}
     for side, learner in learners.items():
         obs = out[f"obs_{side}"]

@@ -17,7 +17,7 @@ from wolfpack.interrupt import Interrupted
 from wolfpack.learn.recipes import ALGOS, LEARNERS, check_memory, recipe, recipes_params_overrides, rollout_bytes
 from wolfpack.learn.tasks import TASK_WEIGHTS, task_list, world_groups
 from wolfpack.models import CONFIG_FILE, read_config
-from wolfpack.sides import SCRIPTED_LAWS
+from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES
 
 DEVICES = ("auto", "cpu", "cuda")
 #: ``--seed`` is below this: the training worlds take ``TRAIN_SEED_BASE·(S+1) + e`` (and a
@@ -163,7 +163,7 @@ def check_rollout_memory(worlds: list[dict], learners: str, algo: str, recipes: 
     ``worlds`` (the params of every group of worlds; the largest counts for all of them)."""
 
     batch = recipes["wolves" if learners == "both" else learners]  # the batch's keys are the first side's
-    sides = ("wolves", "targets") if learners == "both" else (learners,)
+    sides = SIDES if learners == "both" else (learners,)
     needed = 0
     for params in worlds:
         probe = BatchEnv(params, num_envs=1, learners="all" if learners == "both" else learners)
@@ -242,12 +242,12 @@ def run_training(
     from wolfpack.learn.trainer import Trainer, TrainSpec
 
     device = resolve_device(device)
-    sides = ("wolves", "targets") if learners == "both" else (learners,)
+    sides = SIDES if learners == "both" else (learners,)
     recipes = {side: recipe(side, algo, hp) for side in sides}
     # The recipes' params overrides first (reward weights, observation keys), the run's own
     # --set after them (they win).
     overrides = {**recipes_params_overrides(recipes), **overrides}
-    other = {"wolves": "targets", "targets": "wolves"}.get(learners)
+    other = OTHER_SIDE.get(learners)
     if opponent is not None and other and opponent in SCRIPTED_LAWS[other]:
         # A law opponent is the params' law of that side: the saved models then say in their
         # params what they were trained against.
@@ -296,32 +296,34 @@ def run_training(
     # Building the trainer builds the batch and loads the opponent: a model of the wrong side or
     # observation size fails here, before anything is written.
     trainer = Trainer(spec, out, resume=resume, progress=progress)
-    if not resume:
-        import yaml
-
-        from wolfpack.learn.trainer import _plain, versions
-
-        out.mkdir(parents=True, exist_ok=True)
-        _clear_start_up(out)
-        config = {
-            **spec.identity(),
-            "task": tasks[0] if len(tasks) == 1 else (tasks or None),
-            "vary": {key: list(span) for key, span in (vary or {}).items()} or None,
-            "trainer": "wolfpack train",
-            "timesteps": timesteps,
-            "time_limit_min": time_limit_min,
-            "threads": spec.threads,
-            "torch_threads": spec.torch_threads,
-            "device": device,
-            "eval_episodes": eval_episodes,
-            "evaluations": evaluations,
-            "imitate_min": imitate_min,
-            "imitate_rounds": imitate_rounds,
-            "command": command,
-            "versions": versions(),
-        }
-        (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
+    # From here on a Ctrl-C, wherever it lands (the configuration half written, the trainer
+    # opening its logs), ends with the one line that says what --out holds.
     try:
+        if not resume:
+            import yaml
+
+            from wolfpack.learn.trainer import _plain, versions
+
+            out.mkdir(parents=True, exist_ok=True)
+            _clear_start_up(out)
+            config = {
+                **spec.identity(),
+                "task": tasks[0] if len(tasks) == 1 else (tasks or None),
+                "vary": {key: list(span) for key, span in (vary or {}).items()} or None,
+                "trainer": "wolfpack train",
+                "timesteps": timesteps,
+                "time_limit_min": time_limit_min,
+                "threads": spec.threads,
+                "torch_threads": spec.torch_threads,
+                "device": device,
+                "eval_episodes": eval_episodes,
+                "evaluations": evaluations,
+                "imitate_min": imitate_min,
+                "imitate_rounds": imitate_rounds,
+                "command": command,
+                "versions": versions(),
+            }
+            (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
         return trainer.run()
     except KeyboardInterrupt:
         # The exit-status table promises one line saying what --out holds.

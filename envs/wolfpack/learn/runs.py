@@ -15,7 +15,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 from wolfpack.learn.run import default_threads
 from wolfpack.logs import write_json_atomic
@@ -90,3 +90,21 @@ def train(folder: Path, options: Sequence[str], log: Path) -> dict:
             lines = log.read_text(encoding="utf-8", errors="replace").strip().splitlines()
             raise RuntimeError(f"the training run {folder} failed (exit {code}): {lines[-1] if lines else 'no output'} (log: {log})")
     return json.loads(summary_path.read_text(encoding="utf-8"))
+
+
+#: The file in a run folder that holds its held-out evaluation.
+HELD_OUT_FILE = "held_out.json"
+
+
+def held_out(folder: Path, episodes: int, evaluate: Callable[[], dict], reevaluate: bool = False) -> dict:
+    """``evaluate()``'s row for the run in ``folder``, cached in its ``held_out.json`` with the
+    episode count; recomputed when the count differs or ``reevaluate`` (after a change to the
+    core, which moves every trajectory)."""
+    cache = folder / HELD_OUT_FILE
+    if cache.exists() and not reevaluate:
+        row = json.loads(cache.read_text())
+        if row.get("episodes") == episodes:
+            return row
+    row = {"episodes": episodes, **evaluate()}
+    cache.write_text(json.dumps(row, indent=1) + "\n")
+    return row

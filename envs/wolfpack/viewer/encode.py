@@ -41,6 +41,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from wolfpack import _core
+from wolfpack.sides import SIDES
 
 #: The law modes' names, indexed by the codes the page holds.
 MODE_NAMES: tuple[str, ...] = tuple(_core.LAW_MODES)
@@ -205,7 +206,7 @@ def encode_episode(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any], 
     the page's JSON object; ``params`` give the body size, sensing radii and laws (the arrays
     carry the border, Ts and capture distance); ``drivers`` name who drove each side where
     that was not the law of ``params`` (a model)."""
-    laws = {side: str(params["policies"][side]) for side in ("wolves", "targets")} | dict(drivers or {})
+    laws = {side: str(params["policies"][side]) for side in SIDES} | dict(drivers or {})
     wolves, targets = np.asarray(arrays["wolves"], dtype=np.float64), np.asarray(arrays["targets"], dtype=np.float64)
     rows, n, m = wolves.shape[0], wolves.shape[1], targets.shape[1]
     agents = np.concatenate([wolves, targets], axis=1)
