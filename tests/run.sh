@@ -14,7 +14,7 @@ python3 -m pip install -e ".[train,dev]"
 
 echo "== Rust core"
 cargo test --release
-echo "== Python"
-python3 -m pytest "$@"
+echo "== Python (without the slow end-to-end checks: python3 -m pytest -m slow runs those)"
+python3 -m pytest -m "not slow" "$@"
 echo "== RLlib (its own virtualenv, .venv-rllib: ray[rllib] pins gymnasium)"
 bash tests/rllib/run.sh

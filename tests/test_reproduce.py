@@ -24,6 +24,9 @@ from pathlib import Path
 
 import pytest
 
+#: Minutes of commands: README's test command leaves them out, .ci/run runs them (pytest -m slow).
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_MD = ROOT / "RESULTS.md"
 #: The longest a command may say it takes to count as fast, in seconds.
