@@ -519,3 +519,19 @@ def test_a_training_run_keeps_freed_minibatch_memory_in_the_heap_unless_the_user
     assert run("default") == ["None", "True"]
     assert run("keep") == ["True", "False"]
     assert run("keep", MALLOC_TRIM_THRESHOLD_="131072", MALLOC_MMAP_THRESHOLD_="131072") == ["False", "True"]
+
+
+def test_every_training_option_is_a_command_line_option_of_the_same_name():
+    """wolfpack train's parser writes TrainOptions' field names, so that the command line and
+    wolfpack.learn.train() take one list of options (a new field without an option fails here)."""
+    from dataclasses import fields
+
+    from wolfpack.cli.main import build_parser
+    from wolfpack.learn import TrainOptions
+
+    args = build_parser().parse_args(["train", "--side", "wolves", "--out", "x", "--timesteps", "10", "--imitate", "2", "--imitate-rounds", "3", "--time-limit", "5"])
+    computed = {"progress", "command"}  # from --no-progress, and the command line itself
+    assert {f.name for f in fields(TrainOptions)} - computed <= set(vars(args))
+    assert (args.learners, args.time_limit_min, args.imitate_min, args.imitate_rounds) == ("wolves", 5.0, 2.0, 3)
+    with pytest.raises(TypeError, match="timestep"):
+        train(out="x", timestep=10)

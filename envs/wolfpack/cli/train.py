@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import argparse
 import shlex
+from dataclasses import fields
 from typing import Sequence
 
 from wolfpack import config
 from wolfpack.cli.args import folder, int_at_least, positive_minutes
 from wolfpack.learn.recipes import ALGOS, LEARNERS
-from wolfpack.learn.run import DEVICES, run_training
+from wolfpack.learn.run import DEVICES, TrainOptions, run_training
 from wolfpack.learn.tasks import TASK_WEIGHTS, VARIANTS, parse_vary
 from wolfpack.sides import SIDES
 from wolfpack.task import TASK_ORDER
@@ -80,10 +81,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
         epilog=TRAIN_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--side", required=True, choices=LEARNERS, help="which side learns (both: both sides at once)")
+    p.add_argument("--side", required=True, choices=LEARNERS, dest="learners", help="which side learns (both: both sides at once)")
     p.add_argument("--algo", choices=ALGOS, default="mappo", help="ippo (decentralised critic) or mappo (centralised critic on the global state; default)")
     p.add_argument("--out", required=True, metavar="DIR", type=folder, help="run folder (new or empty, or the run to --resume)")
-    p.add_argument("--time-limit", metavar="MIN", type=positive_minutes, default=None, help="stop after this many minutes of this invocation")
+    p.add_argument("--time-limit", metavar="MIN", type=positive_minutes, default=None, dest="time_limit_min", help="stop after this many minutes of this invocation")
     p.add_argument("--timesteps", metavar="N", type=int_at_least(1), default=None, help="stop after this many agent-steps in all")
     p.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="seed of the networks, the sampling and the training worlds 1000000*(S+1)+e; 0 <= S < 10^13 (default 0)")
     p.add_argument(
@@ -130,6 +131,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--imitate",
         metavar="MIN",
+        dest="imitate_min",
         type=positive_minutes,
         default=None,
         help="first clone each learning side's scripted law (params policies.<side>) for this many minutes with DAgger, then PPO; part of the time limit",
@@ -149,34 +151,17 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 
 def cmd_train(args: argparse.Namespace, argv: Sequence[str]) -> None:
-
-    overrides = dict(config.parse_override(text) for text in args.overrides)
-    hp = dict(config.parse_override(text, "--hp") for text in args.hp)
-    summary = run_training(
-        learners=args.side,
-        algo=args.algo,
-        out=args.out,
-        time_limit_min=args.time_limit,
-        timesteps=args.timesteps,
-        seed=args.seed,
-        params=args.params,
-        task=args.task,
-        vary=parse_vary(args.vary),
-        task_weights=args.task_weights,
-        overrides=overrides,
-        hp=hp,
-        opponent=args.opponent,
-        device=args.device,
-        threads=args.threads,
-        torch_threads=args.torch_threads,
-        eval_episodes=args.eval_episodes,
-        evaluations=args.evaluations,
-        imitate_min=args.imitate,
-        imitate_rounds=args.imitate_rounds,
-        resume=args.resume,
-        progress=not args.no_progress,
-        command=" ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
-    )
+    # The parser's destinations are TrainOptions' field names; these options are converted.
+    converted = {
+        "overrides": dict(config.parse_override(text) for text in args.overrides),
+        "hp": dict(config.parse_override(text, "--hp") for text in args.hp),
+        "vary": parse_vary(args.vary),
+        "progress": not args.no_progress,
+        "command": " ".join(shlex.quote(a) for a in ["wolfpack", *argv]),
+    }
+    given = {f.name: getattr(args, f.name) for f in fields(TrainOptions) if hasattr(args, f.name) and f.name not in converted}
+    options = TrainOptions(**given, **converted)
+    summary = run_training(options)
     final = summary.get("final_evaluation") or {}
     rate = summary["this_invocation"]["agent_steps_per_s"] or 0
     line = f"{summary['learners']} {summary['algo']}: {summary['agent_steps']:,} agent-steps, {summary['train_s'] / 60:.1f} min, {rate / 1000:.0f}k agent-steps/s"

@@ -15,64 +15,14 @@ Importing this package does not import torch; :func:`train` does.
 """
 
 from wolfpack.learn.recipes import ALGOS, LEARNERS, recipe
-from wolfpack.learn.run import run_training
+from wolfpack.learn.run import TrainOptions, run_training
 
 
-def train(
-    learners: str = "wolves",
-    algo: str = "mappo",
-    *,
-    out,
-    time_limit_min=None,
-    timesteps=None,
-    seed: int = 0,
-    params=None,
-    task=None,
-    vary=None,
-    task_weights: str = "uniform",
-    overrides=None,
-    hp=None,
-    opponent=None,
-    device: str = "auto",
-    threads=None,
-    torch_threads=None,
-    eval_episodes: int = 100,
-    evaluations: int = 10,
-    imitate_min=None,
-    imitate_rounds=None,
-    resume: bool = False,
-    progress: bool = True,
-) -> dict:
+def train(learners: str = "wolves", algo: str = "mappo", **options) -> dict:
     """Trains as ``wolfpack train`` does (``wolfpack train --help``) and returns the run's
-    summary; ``overrides`` and ``hp`` are dicts of dotted keys; ``opponent`` is one driver or a
-    list of them (a pool, one drawn per rollout, the first evaluated); ``task`` a task's name or
-    a list of them (``"all"``: the suite; several: one model over them, multi-task), ``vary``
-    ``{key: (lo, hi)}`` as ``--vary`` takes them."""
-    return run_training(
-        learners=learners,
-        algo=algo,
-        out=out,
-        time_limit_min=time_limit_min,
-        timesteps=timesteps,
-        seed=seed,
-        params=params,
-        task=task,
-        vary=dict(vary or {}),
-        task_weights=task_weights,
-        overrides=overrides or {},
-        hp=hp or {},
-        opponent=opponent,
-        device=device,
-        threads=threads,
-        torch_threads=torch_threads,
-        eval_episodes=eval_episodes,
-        evaluations=evaluations,
-        imitate_min=imitate_min,
-        imitate_rounds=imitate_rounds,
-        resume=resume,
-        progress=progress,
-        command="",
-    )
+    summary. The keywords are :class:`~wolfpack.learn.run.TrainOptions`' fields (``out`` and a
+    budget, ``timesteps`` or ``time_limit_min``, are needed); an unknown one is a TypeError."""
+    return run_training(TrainOptions(learners=learners, algo=algo, **options))
 
 
-__all__ = ["ALGOS", "LEARNERS", "recipe", "train"]
+__all__ = ["ALGOS", "LEARNERS", "TrainOptions", "recipe", "train"]

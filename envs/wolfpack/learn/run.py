@@ -7,8 +7,9 @@ from __future__ import annotations
 import json
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, ClassVar, Mapping, Sequence
 
 from wolfpack._checks import is_int, usable_cores
 from wolfpack.batch import BatchEnv, resolve_params
@@ -186,33 +187,51 @@ def _short(v: Any) -> str:
     return text if len(text) <= 40 else "different values"
 
 
-def run_training(
-    *,
-    learners: str,
-    algo: str,
-    out,
-    time_limit_min,
-    timesteps,
-    seed: int,
-    params,
-    overrides: dict,
-    hp: dict,
-    task: str | Sequence[str] | None = None,
-    vary: dict | None = None,
-    task_weights: str = "uniform",
-    opponent,
-    device: str,
-    threads,
-    torch_threads,
-    eval_episodes: int,
-    resume: bool,
-    evaluations: int = 10,
-    imitate_min: float | None = None,
-    imitate_rounds: int | None = None,
-    progress: bool,
-    command: str,
-) -> dict:
+@dataclass(frozen=True, kw_only=True)
+class TrainOptions:
+    """What a training run is asked for: ``wolfpack train``'s options (``--help`` says what each
+    does) and :func:`wolfpack.learn.train`'s keywords, one field each, checked by
+    :func:`run_training`. ``overrides`` and ``hp`` are dicts of dotted keys (``--set``, ``--hp``);
+    ``opponent`` is one driver or a list of them (a pool: one drawn per rollout, the first
+    evaluated); ``task`` a task's name or a list of them (``"all"``: the suite); ``vary``
+    ``{key: (lo, hi)}`` as ``--vary`` takes them; ``command`` the command line that started the
+    run, kept in its configuration."""
+
+    learners: str = "wolves"
+    algo: str = "mappo"
+    out: str | os.PathLike
+    time_limit_min: float | None = None
+    timesteps: int | None = None
+    seed: int = 0
+    params: Any = None
+    task: str | Sequence[str] | None = None
+    vary: Mapping[str, tuple] | None = None
+    task_weights: str = "uniform"
+    overrides: Mapping[str, Any] | None = None
+    hp: Mapping[str, Any] | None = None
+    opponent: Any = None
+    device: str = "auto"
+    threads: int | None = None
+    torch_threads: int | None = None
+    eval_episodes: int = 100
+    evaluations: int = 10
+    imitate_min: float | None = None
+    imitate_rounds: int | None = None
+    resume: bool = False
+    progress: bool = True
+    command: str = ""
+
+    #: The options a run's configuration (config.yaml) records as given, beside the trainer's
+    #: identity and what they resolved to (the device, the thread counts).
+    RECORDED: ClassVar[tuple[str, ...]] = ("timesteps", "time_limit_min", "eval_episodes", "evaluations", "imitate_min", "imitate_rounds", "command")
+
+
+def run_training(options: TrainOptions) -> dict:
     """Checks every input (ValueError naming it, nothing written), then trains."""
+    o = options
+    learners, algo, seed, opponent, device, task, params = o.learners, o.algo, o.seed, o.opponent, o.device, o.task, o.params
+    time_limit_min, timesteps, imitate_min, imitate_rounds = o.time_limit_min, o.timesteps, o.imitate_min, o.imitate_rounds
+    task_weights, vary, overrides, hp = o.task_weights, dict(o.vary or {}), dict(o.overrides or {}), dict(o.hp or {})
     prefer_passive_omp()
     keep_freed_memory()
     if learners not in LEARNERS:
@@ -277,25 +296,25 @@ def run_training(
         opponent_pool=tuple(pool),
         timesteps=timesteps,
         time_limit_min=time_limit_min,
-        threads=threads or cores_env,
-        torch_threads=torch_threads or cores_torch,
+        threads=o.threads or cores_env,
+        torch_threads=o.torch_threads or cores_torch,
         device=device,
-        eval_episodes=eval_episodes,
-        evaluations=evaluations,
+        eval_episodes=o.eval_episodes,
+        evaluations=o.evaluations,
         imitate_min=imitate_min,
         imitate_rounds=imitate_rounds,
-        command=command,
+        command=o.command,
         groups=tuple(groups),
         eval_tasks=tuple(eval_tasks),
         task_weights=task_weights,
     )
     check_rollout_memory([params for _, _, params in groups] or [resolved], learners, algo, recipes)
-    out = Path(out)
-    resume = prepare_out(out, resume, spec.identity())
+    out = Path(o.out)
+    resume = prepare_out(out, o.resume, spec.identity())
     torch.set_num_threads(spec.torch_threads)
     # Building the trainer builds the batch and loads the opponent: a model of the wrong side or
     # observation size fails here, before anything is written.
-    trainer = Trainer(spec, out, resume=resume, progress=progress)
+    trainer = Trainer(spec, out, resume=resume, progress=o.progress)
     # From here on a Ctrl-C, wherever it lands (the configuration half written, the trainer
     # opening its logs), ends with the one line that says what --out holds.
     try:
@@ -311,16 +330,10 @@ def run_training(
                 "task": tasks[0] if len(tasks) == 1 else (tasks or None),
                 "vary": {key: list(span) for key, span in (vary or {}).items()} or None,
                 "trainer": "wolfpack train",
-                "timesteps": timesteps,
-                "time_limit_min": time_limit_min,
+                **{name: getattr(o, name) for name in TrainOptions.RECORDED},
+                "device": device,
                 "threads": spec.threads,
                 "torch_threads": spec.torch_threads,
-                "device": device,
-                "eval_episodes": eval_episodes,
-                "evaluations": evaluations,
-                "imitate_min": imitate_min,
-                "imitate_rounds": imitate_rounds,
-                "command": command,
                 "versions": versions(),
             }
             (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
