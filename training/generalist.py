@@ -7,7 +7,7 @@ Each RUN is one training seed's run folder of a multi-task ``wolfpack train`` (`
 --hp network=entities``). Each final model is scored by ``wolfpack benchmark``'s scorecard on
 every task and on every variation of the generalisation track (deterministic, the held-out
 episodes 500000 + k, the laws played on the same episodes). Over the seeds: the interquartile
-mean with a 95 % percentile bootstrap interval (``seeds.iqm_interval``), per task, of the
+mean with a 95 % percentile bootstrap interval (``wolfpack.stats.iqm_interval``), per task, of the
 capture rate and of the wolf collision rate, beside the best law of that task.
 
 Writes into --out: generalist.json (every seed's scorecards and the summary), generalist.md (the

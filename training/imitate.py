@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 from wolfpack.cli.args import int_at_least
 from wolfpack.evaluation import HELD_OUT_SEED, IMITATION_SEED_BASE, report, rollout
-from wolfpack.learn.sb3 import algorithms, env_params, hyperparams, prepare_out, sb3_kwargs, versions, write_config
+from wolfpack.learn.sb3 import SB3_ALGOS, algorithms, env_params, hyperparams, prepare_out, sb3_kwargs, versions, write_config
 from wolfpack.models import MODEL_FILE
 from wolfpack.report.imitation import plot
 from wolfpack.sides import SIDES
@@ -50,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="imitate.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--side", required=True, choices=SIDES, help="whose law to imitate")
     p.add_argument("--out", required=True, help="run folder")
-    p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 policy type to produce (default ppo)")
+    p.add_argument("--algo", default="ppo", choices=SB3_ALGOS, help="SB3 policy type to produce (default ppo)")
     p.add_argument("--params", default=None, help="params YAML (default: the documented scenario)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="hyperparameter override of the produced model, e.g. policy_kwargs.net_arch.pi=[128,128]")

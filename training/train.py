@@ -45,7 +45,7 @@ from pathlib import Path
 import yaml
 from wolfpack.cli.args import int_at_least
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
-from wolfpack.learn.sb3 import Stopwatch, algorithms, env_params, hyperparams, load_model, observation_size, prepare_out, sb3_kwargs, versions, write_config
+from wolfpack.learn.sb3 import SB3_ALGOS, Stopwatch, algorithms, env_params, hyperparams, load_model, observation_size, prepare_out, sb3_kwargs, versions, write_config
 from wolfpack.models import MODEL_FILE
 from wolfpack.sides import SIDES
 
@@ -56,7 +56,7 @@ HYPERPARAMS_PATH = Path(__file__).with_name("hyperparams.yaml")
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="train.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--side", required=True, choices=SIDES, help="which side learns; the other follows its scripted law")
-    p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm (default ppo)")
+    p.add_argument("--algo", default="ppo", choices=SB3_ALGOS, help="SB3 algorithm (default ppo)")
     p.add_argument("--timesteps", required=True, type=int_at_least(1), help="training budget in agent-steps")
     p.add_argument("--params", default=None, help="params YAML (default: the documented scenario, or with --init-from the source run's params)")
     p.add_argument(

@@ -40,9 +40,10 @@ SB3_ALGOS = ("ppo", "sac")
 
 
 def algorithms() -> dict[str, type]:
+    """Each of :data:`SB3_ALGOS` to its SB3 class (imported here: SB3 brings torch)."""
     from stable_baselines3 import PPO, SAC
 
-    return {"ppo": PPO, "sac": SAC}
+    return dict(zip(SB3_ALGOS, (PPO, SAC)))
 
 
 def env_params(params_path: str | None, sets: Sequence[str], side: str | None = None) -> dict:
