@@ -32,26 +32,25 @@ def int_at_least(lo: int, hi: int | None = None) -> Callable[[str], int]:
     return parse
 
 
-def positive_minutes(text: str) -> float:
-    """A time limit in minutes: a finite number > 0."""
+def _positive(text: str, what: str) -> float:
+    """``text`` as a finite number > 0; the errors call it ``what``."""
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of minutes, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
     if not (value > 0 and value != float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a number of minutes > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be {what} > 0, got {text!r}")
     return value
+
+
+def positive_minutes(text: str) -> float:
+    """A time limit in minutes: a finite number > 0."""
+    return _positive(text, "a number of minutes")
 
 
 def positive_number(text: str) -> float:
     """A finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (value > 0 and value != float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
-    return value
+    return _positive(text, "a number")
 
 
 def folder(text: str) -> str:
