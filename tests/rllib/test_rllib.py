@@ -25,22 +25,11 @@ os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
 ray = pytest.importorskip("ray")  # run.sh installs it; the main test run never collects this file
 
 import wolfpack  # noqa: E402
+from conftest import training_script  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 
-
-def _load_rllib_train():
-    """training/rllib_train.py as a module (it imports only the installed package)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("training_rllib_train", REPO / "training" / "rllib_train.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # as an import would: dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-rllib_train = _load_rllib_train()
+rllib_train = training_script("rllib_train")
 
 SMALL = ["--train-batch", "400", "--minibatch", "200", "--epochs", "1"]
 
