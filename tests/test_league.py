@@ -92,6 +92,29 @@ def test_a_league_of_both_sides_runs_end_to_end(tiny_league):
     assert report(rollout(task_params("hunt-v1"), episodes=4, seed=META_SEED), "seed000", "escape")["capture_rate"] == m[0, 0]
 
 
+def test_a_fine_tuning_league_starts_each_run_from_the_sides_newest_model(tmp_path):
+    """--fine-tune: the wolves' runs continue the pack the league started from, then its newest
+    best response; the targets' first run (a population of laws) starts from scratch."""
+    import yaml
+
+    start = str(ROOT / "results" / "learned" / "wolves_mappo" / "native_wolves_mappo_s0" / "wolves")
+    out = tmp_path / "tuned"
+    doc = league(out, iterations=1, budget=8_192, episodes=4, jobs=2, wolves=[start], fine_tune=True)
+    assert doc["fine_tune"] is True and doc["wolves"] == [start]
+
+    def init(run: str) -> str | None:
+        return yaml.safe_load((out / run / "config.yaml").read_text()).get("init")
+
+    assert init("iter1/wolves") == {"wolves": start}
+    assert init("iter1/targets") is None
+    assert init("final/wolves") == {"wolves": str(out / "iter1" / "wolves" / "wolves")}
+    assert init("final/targets") == {"targets": str(out / "iter1" / "targets" / "targets")}
+    # The fine-tuned pack keeps the network it started from (a best response from scratch would
+    # have the wolves' default recipe).
+    model = yaml.safe_load((out / "iter1" / "wolves" / "wolves" / "config.yaml").read_text())
+    assert model["network"] == yaml.safe_load((Path(start) / "config.yaml").read_text())["network"]
+
+
 def test_a_stopped_league_resumes_and_ends_as_an_uninterrupted_one(tiny_league, tmp_path):
     out, doc, _ = tiny_league
     # Stopped during the second iteration: its targets' run never started, the final not either.

@@ -352,6 +352,54 @@ def test_imitation_in_rounds_is_the_same_clone_however_busy_the_machine(tmp_path
     assert not (tmp_path / "c").exists()
 
 
+def test_a_run_starts_from_a_saved_model_with_its_recipe_and_a_critic_that_learns_first(tmp_path):
+    """--init: the learner starts with the model's actor and recipe; for the first updates only
+    the critic learns, so after one update the actor's weights are still the model's (its
+    observation normaliser goes on counting); later updates move it."""
+    import yaml
+
+    tiny_train(tmp_path / "a", algo="ippo", timesteps=1_000, hp={**TINY, "hidden": [24, 24], "learning_rate": 1e-3})
+    model = torch.load(tmp_path / "a" / "wolves" / "policy.pt", weights_only=True)
+    weights = [k for k in model if not k.startswith("norm.")]
+    assert len(weights) >= 6
+
+    # One update (8 worlds x 16 steps x 5 wolves = 640 agent-steps), no --hp: the model's recipe.
+    tiny_train(tmp_path / "b", algo="ippo", timesteps=640, hp={}, init=str(tmp_path / "a"))
+    started = torch.load(tmp_path / "b" / "wolves" / "policy.pt", weights_only=True)
+    assert all(torch.equal(started[k], model[k]) for k in weights)
+    assert not torch.equal(started["norm.count"], model["norm.count"]), "the normaliser counts the new run's observations"
+    config = yaml.safe_load((tmp_path / "b" / "wolves" / "config.yaml").read_text())
+    assert config["recipe"]["hidden"] == [24, 24] and config["recipe"]["learning_rate"] == 1e-3
+    assert config["init"] == str(tmp_path / "a" / "wolves")
+    assert yaml.safe_load((tmp_path / "b" / "config.yaml").read_text())["init"] == {"wolves": str(tmp_path / "a" / "wolves")}
+
+    tiny_train(tmp_path / "c", algo="ippo", timesteps=640 * 5, hp={}, init=str(tmp_path / "a" / "wolves"))
+    moved = torch.load(tmp_path / "c" / "wolves" / "policy.pt", weights_only=True)
+    assert not all(torch.equal(moved[k], model[k]) for k in weights), "PPO moves the actor after the critic's first updates"
+
+
+def test_a_start_from_a_model_that_does_not_fit_is_refused_before_anything_is_written(tmp_path, both_run):
+    run, _ = both_run
+    bad = [
+        (dict(init=str(tmp_path)), "not a model of 'wolfpack train'"),
+        (dict(learners="targets", init=str(run / "wolves")), "a model of the wolves, and this run trains the targets"),
+        (dict(init=[str(run), str(run / "wolves")]), "a second model of the wolves"),
+        (dict(init=str(run), imitate_rounds=2), "--init and --imitate both"),
+        (dict(init=str(run), hp={"hidden": [32, 32]}), "another network than this run's (hidden: [16, 16] there, [32, 32] here)"),
+    ]
+    for k, (kw, message) in enumerate(bad):
+        out = tmp_path / f"out{k}"
+        with pytest.raises(ValueError) as err:
+            tiny_train(out, **kw)
+        assert message in str(err.value), str(err.value)
+        assert not out.exists()
+    r = subprocess.run(
+        [sys.executable, "-m", "wolfpack", "train", "--side", "targets", "--init", str(run / "wolves"), "--timesteps", "100", "--out", str(tmp_path / "cli")], capture_output=True, text=True
+    )
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "--init" in r.stderr, r.stderr
+    assert not (tmp_path / "cli").exists()
+
+
 def test_imitation_fits_the_actor_to_the_law(tmp_path):
     """A few rounds on a tiny batch bring the clone's actions closer to the law's than the
     untrained actor's were, on states the law itself visits."""

@@ -16,8 +16,9 @@ LEAGUE_DESCRIPTION = """\
 Trains wolves and targets against each other as two growing populations (PSRO with a Nash
 meta-solver). Each iteration plays every wolf member against every target member on the
 meta-game's episodes (seeds 700000 + k), solves the empirical zero-sum game for each side's
-Nash mixture (a linear program), trains one best response per side from scratch against the
-other side's mixture ('wolfpack train --opponent …', --budget agent-steps each), adds both to
+Nash mixture (a linear program), trains one best response per side against the other side's
+mixture ('wolfpack train --opponent …', --budget agent-steps each; from scratch, or with
+--fine-tune from the side's newest saved model), adds both to
 the populations, and logs each mixture's exploitability: what the other side's new best
 response achieves against it. After the last iteration one final policy per side is trained
 against the other side's final mixture: the league's product.
@@ -38,6 +39,7 @@ LEAGUE_EPILOG = """\
 examples:
   wolfpack league --out runs/league
   wolfpack league --out runs/league --iterations 8 --budget 4000000 --wolves bvc seed000 --targets escape
+  wolfpack league --out runs/tuned --wolves results/learned/generalist/imitation-seed2 --fine-tune --iterations 3
   wolfpack league --out runs/league --resume"""
 
 
@@ -60,6 +62,11 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--wolves", metavar="POLICY", nargs="+", default=None, help="the wolves' first members: laws or saved wolf models (default: the task's wolf law)")
     p.add_argument("--targets", metavar="POLICY", nargs="+", default=None, help="the targets' first members: laws or saved target models (default: the task's target law)")
     p.add_argument("--jobs", metavar="J", type=int_at_least(1, 2), default=1, help="1, or 2: both sides' runs of a step at once (default 1)")
+    p.add_argument(
+        "--fine-tune",
+        action="store_true",
+        help="each run of a side starts from the side's newest saved model (wolfpack train --init) instead of from scratch: e.g. --wolves <a trained pack> --fine-tune improves that pack against every best response",
+    )
     p.add_argument("--resume", action="store_true", help="continue the unfinished league in --out")
     p.add_argument("--json", action="store_true", help="print league.json on stdout instead of the table")
     p.set_defaults(func=cmd_league)
@@ -86,6 +93,7 @@ def cmd_league(args: argparse.Namespace, argv: Sequence[str]) -> None:
             wolves=args.wolves,
             targets=args.targets,
             jobs=args.jobs,
+            fine_tune=args.fine_tune,
             resume=args.resume,
             progress=done,
         )

@@ -69,7 +69,8 @@ examples:
   wolfpack train --side wolves --opponent escape --opponent results/models/escape_ppo --time-limit 15 --out runs/pool
   wolfpack train --side both --timesteps 20000000 --seed 3 --out runs/both
   wolfpack train --side wolves --out runs/wolves --resume --time-limit 15
-  wolfpack train --side wolves --task all --hp network=entities --time-limit 60 --out runs/generalist"""
+  wolfpack train --side wolves --task all --hp network=entities --time-limit 60 --out runs/generalist
+  wolfpack train --side wolves --init runs/generalist --opponent escape --opponent runs/escaper --time-limit 15 --out runs/tuned"""
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -142,6 +143,13 @@ def add_parser(sub) -> argparse.ArgumentParser:
         type=int_at_least(1),
         default=None,
         help="first clone each learning side's scripted law with this many DAgger rounds (reproducible on any machine), then PPO",
+    )
+    p.add_argument(
+        "--init",
+        metavar="MODEL",
+        action="append",
+        default=None,
+        help="start the learning side from this saved model of 'wolfpack train' (a model or run folder; repeated with --side both: one per side): its actor and its recipe (--hp changes it), a fresh critic that learns alone for the first updates; e.g. to fine-tune a pack against new opponents",
     )
     p.add_argument("--evaluations", metavar="K", type=int_at_least(1), default=10, help="held-out evaluations per budget, evenly spread (default 10), and one at the end")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its latest state (its configuration must match)")

@@ -8,9 +8,10 @@ task). An iteration:
    :data:`META_SEED` + k: neither the training worlds nor the held-out episodes), the capture
    rate being the payoff, cached pair by pair;
 2. solves the empirical game for each side's Nash mixture (:func:`wolfpack.learn.meta.nash`);
-3. trains a best response of each side from scratch against the other side's mixture
-   (``wolfpack train --opponent A --opponent A --opponent B …``: the trainer's pool draws one
-   member per rollout, so a member's copies stand for its weight, in twentieths);
+3. trains a best response of each side against the other side's mixture (``wolfpack train
+   --opponent A --opponent A --opponent B …``: the trainer's pool draws one member per rollout,
+   so a member's copies stand for its weight, in twentieths): from scratch, or with
+   ``fine_tune`` from the side's newest saved model (``--init``);
 4. adds both to the populations and logs each mixture's exploitability: what the best
    response the league has achieves against it — the new one, or the population's best member,
    which gets the game's value against a Nash mixture (the targets' survival against the
@@ -41,7 +42,7 @@ from wolfpack.evaluation import report, rollout
 from wolfpack.learn.meta import nash
 from wolfpack.learn.runs import RunError, check_player, prepare, threads_per_run, train
 from wolfpack.logs import write_json_atomic
-from wolfpack.models import load_policy
+from wolfpack.models import load_policy, native_model_folders
 from wolfpack.opponents import Opponent
 from wolfpack.sides import SIDES, bring_observation, mode_key
 from wolfpack.task import check_task, task_params
@@ -60,7 +61,7 @@ class LeagueError(RunError):
     """Bad input to a league, said in one line."""
 
 
-def plan(iterations: int, budget: int, task: str, episodes: int, seed: int, wolves: Sequence[str] | None, targets: Sequence[str] | None) -> dict:
+def plan(iterations: int, budget: int, task: str, episodes: int, seed: int, wolves: Sequence[str] | None, targets: Sequence[str] | None, fine_tune: bool = False) -> dict:
     """What a league is: what must match for ``resume`` to continue one."""
     for name, value, low in (("--iterations", iterations, 1), ("--budget", budget, 1), ("--episodes", episodes, 1), ("--seed", seed, 0)):
         if not isinstance(value, int) or isinstance(value, bool) or value < low:
@@ -73,7 +74,18 @@ def plan(iterations: int, budget: int, task: str, episodes: int, seed: int, wolv
     for side, members in start.items():
         for member in members:
             check_player(member, side, LeagueError)
-    return {"iterations": iterations, "budget": budget, "task": task, "episodes": episodes, "seed": seed, "meta_solver": "nash", "meta_seed": META_SEED, **start}
+    if not isinstance(fine_tune, bool):
+        raise LeagueError(f"fine_tune {fine_tune!r}: True or False")
+    doc = {"iterations": iterations, "budget": budget, "task": task, "episodes": episodes, "seed": seed, "meta_solver": "nash", "meta_seed": META_SEED, **start}
+    if fine_tune:  # only when asked: the plan of a league from scratch reads as it always did
+        doc["fine_tune"] = True
+    return doc
+
+
+def newest_model(members: Sequence[str]) -> str | None:
+    """The newest member that is a saved model of ``wolfpack train`` (what a fine-tuned run
+    starts from); None while the population holds laws and other kinds of model only."""
+    return next((m for m in reversed(members) if native_model_folders(m)), None)
 
 
 def pool(members: Sequence[str], mixture: np.ndarray) -> list[str]:
@@ -141,6 +153,7 @@ def league(
     wolves: Sequence[str] | None = None,
     targets: Sequence[str] | None = None,
     jobs: int = 1,
+    fine_tune: bool = False,
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
 ) -> dict:
@@ -149,9 +162,12 @@ def league(
     value, each mixture's exploitability and NashConv, the best responses' models and training
     times), ``final`` (the final mixtures and the final policy of each side), the payoff matrix
     and ``wall_s``. ``jobs`` = 2 trains both sides' runs of a step at once, on half the cores
-    each; ``progress`` is called with each iteration's record."""
+    each; ``fine_tune``: each run of a side starts from the side's newest saved model of
+    ``wolfpack train`` (``--init``: a pack improved against the best responses it met, rather
+    than a new one from scratch every iteration); ``progress`` is called with each iteration's
+    record."""
     out = Path(out).resolve()  # the members' paths: the same from any working folder
-    the_plan = plan(iterations, budget, task, episodes, seed, wolves, targets)
+    the_plan = plan(iterations, budget, task, episodes, seed, wolves, targets, fine_tune)
     if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs not in (1, 2):
         raise LeagueError(f"--jobs {jobs}: 1 or 2 (the two sides' runs of a step)")
     prepare(out, the_plan, resume, RESULT_FILE, "league")
@@ -166,6 +182,9 @@ def league(
             options = ["--side", side, "--task", task, "--timesteps", str(budget), "--seed", str(run_seed), "--eval-episodes", str(episodes), "--evaluations", str(EVALUATIONS)]
             options += [a for o in opponents[side] for a in ("--opponent", o)]
             options += ["--threads", str(threads), "--torch-threads", str(threads)]
+            start = newest_model(pops[side]) if fine_tune else None
+            if start is not None:
+                options += ["--init", start]
             return train(folder / side, options, out / LOGS_DIR / f"{folder.name}_{side}.log")
 
         if jobs == 1:

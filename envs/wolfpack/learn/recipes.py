@@ -23,14 +23,17 @@ PARAMS_SECTIONS = ("rewards", "env")
 LOG_STD_RANGE = (-20, 2)
 
 
-def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None) -> dict:
+def recipe(side: str, algo: str, overrides: Mapping[str, Any] | None = None, base: Mapping[str, Any] | None = None) -> dict:
     """The recipe of ``side`` (``wolves`` or ``targets``) and ``algo``, with ``overrides`` (keys
-    of the recipe; a key it does not have is a ValueError listing the known ones)."""
+    of the recipe; a key it does not have is a ValueError listing the known ones). ``base``: a
+    saved model's recipe that a run continues from (``--init``), laid over the table's (which
+    fills the keys an older model lacks) before the overrides."""
     if algo not in ALGOS:
         raise ValueError(f"unknown algorithm {algo!r}: one of {', '.join(ALGOS)}")
     table = yaml.safe_load(RECIPES_PATH.read_text())
     r = dict(table["default"])
     r.update((table.get(side) or {}).get(algo) or {})
+    r.update({key: value for key, value in (base or {}).items() if key in r})
     for section in PARAMS_SECTIONS:
         r[section] = dict(r.get(section) or {})
     for key, value in (overrides or {}).items():

@@ -17,7 +17,7 @@ from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.interrupt import Interrupted
 from wolfpack.learn.recipes import ALGOS, LEARNERS, check_memory, recipe, recipes_params_overrides, rollout_bytes
 from wolfpack.learn.tasks import TASK_WEIGHTS, task_list, world_groups
-from wolfpack.models import CONFIG_FILE, read_config
+from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy, read_config
 from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -187,6 +187,35 @@ def _short(v: Any) -> str:
     return text if len(text) <= 40 else "different values"
 
 
+def init_models(given: Any, sides: Sequence[str]) -> dict:
+    """``--init``: one saved model of ``wolfpack train`` per learning side (a model folder, or a
+    run folder, which gives the model of each learning side it holds), loaded and checked:
+    ``{side: NativePolicy}``. ValueError naming the folder: not such a model, a model of a side
+    that does not learn in this run, two for one side."""
+    from wolfpack.models import native_model_folders
+
+    paths = [given] if isinstance(given, (str, os.PathLike)) else list(given or [])
+    models: dict = {}
+    for path in paths:
+        try:
+            folders = native_model_folders(path)
+        except ValueError as err:
+            raise ValueError(f"--init {path}: {err}") from None
+        if not folders:
+            raise ValueError(f"--init {path}: not a model of 'wolfpack train' (a folder with {POLICY_FILE} and {CONFIG_FILE}, or a run folder holding one)")
+        chosen = {side: folder for side, folder in folders.items() if side in sides}
+        if not chosen:
+            raise ValueError(f"--init {path}: a model of the {' and '.join(folders)}, and this run trains the {' and '.join(sides)}")
+        for side, folder in chosen.items():
+            if side in models:
+                raise ValueError(f"--init {path}: a second model of the {side} (the first: {models[side].path})")
+            try:
+                models[side] = load_policy(folder, side)
+            except ValueError as err:
+                raise ValueError(f"--init {path}: {err}") from None
+    return models
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrainOptions:
     """What a training run is asked for: ``wolfpack train``'s options (``--help`` says what each
@@ -194,8 +223,9 @@ class TrainOptions:
     :func:`run_training`. ``overrides`` and ``hp`` are dicts of dotted keys (``--set``, ``--hp``);
     ``opponent`` is one driver or a list of them (a pool: one drawn per rollout, the first
     evaluated); ``task`` a task's name or a list of them (``"all"``: the suite); ``vary``
-    ``{key: (lo, hi)}`` as ``--vary`` takes them; ``command`` the command line that started the
-    run, kept in its configuration."""
+    ``{key: (lo, hi)}`` as ``--vary`` takes them; ``init`` one saved model (or run folder) per
+    learning side to start from; ``command`` the command line that started the run, kept in its
+    configuration."""
 
     learners: str = "wolves"
     algo: str = "mappo"
@@ -217,6 +247,7 @@ class TrainOptions:
     evaluations: int = 10
     imitate_min: float | None = None
     imitate_rounds: int | None = None
+    init: str | os.PathLike | Sequence[str | os.PathLike] | None = None
     resume: bool = False
     progress: bool = True
     command: str = ""
@@ -262,7 +293,10 @@ def run_training(options: TrainOptions) -> dict:
 
     device = resolve_device(device)
     sides = SIDES if learners == "both" else (learners,)
-    recipes = {side: recipe(side, algo, hp) for side in sides}
+    init = init_models(o.init, sides)
+    if init and (imitate_min is not None or imitate_rounds is not None):
+        raise ValueError("--init and --imitate both give the learner its first policy: choose one")
+    recipes = {side: recipe(side, algo, hp, base=init[side].config["recipe"] if side in init else None) for side in sides}
     # The recipes' params overrides first (reward weights, observation keys), the run's own
     # --set after them (they win).
     overrides = {**recipes_params_overrides(recipes), **overrides}
@@ -307,6 +341,7 @@ def run_training(options: TrainOptions) -> dict:
         groups=tuple(groups),
         eval_tasks=tuple(eval_tasks),
         task_weights=task_weights,
+        init={side: str(model.path) for side, model in init.items()},
     )
     check_rollout_memory([params for _, _, params in groups] or [resolved], learners, algo, recipes)
     out = Path(o.out)

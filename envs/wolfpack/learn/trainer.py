@@ -42,7 +42,7 @@ from wolfpack import _core
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
 from wolfpack.learn.ppo import SideLearner
-from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_tensors
+from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy, load_tensors
 from wolfpack.opponents import Opponent, as_opponent, opponent_side
 from wolfpack.scorecard import best_law, load_baselines
 from wolfpack.sides import SIDES
@@ -89,6 +89,9 @@ class TrainSpec:
     eval_tasks: tuple[tuple[str, dict], ...] = ()
     #: How the groups weigh in the update, one of :data:`wolfpack.learn.tasks.TASK_WEIGHTS`.
     task_weights: str = "uniform"
+    #: ``{side: model folder}``: the saved models whose actors the learning sides start from
+    #: (``--init``); the critics start afresh and learn alone for the first updates.
+    init: dict[str, str] = field(default_factory=dict)
 
     @property
     def sides(self) -> tuple[str, ...]:
@@ -103,6 +106,8 @@ class TrainSpec:
         if self.groups:
             identity["groups"] = [{"label": label, "task": task, "params": params} for label, task, params in self.groups]
             identity["task_weights"] = self.task_weights
+        if self.init:
+            identity["init"] = dict(self.init)
         return identity
 
 
@@ -204,7 +209,9 @@ class Trainer:
                 generator=self.generator,
                 side_by_side=side_by_side,
             )
-        if state is not None:
+        if state is None:
+            self._start_from_models()
+        else:
             try:
                 self._restore(state)
             except (KeyError, RuntimeError, TypeError, ValueError) as e:  # another network's state
@@ -247,6 +254,21 @@ class Trainer:
                 self.learners[side].load_state_dict(state)
             except (KeyError, RuntimeError, ValueError) as e:
                 raise ValueError(f"cannot start the {side} from that learner: another network or observation size ({type(e).__name__}: {str(e).splitlines()[0]})") from None
+
+    def _start_from_models(self) -> None:
+        """Each side of ``spec.init`` starts with that saved model's actor (its weights, its
+        action spread and its observation normaliser). The model must have this run's network;
+        with entity observations the number of rows may differ (the set network reads any)."""
+        for side, folder in self.spec.init.items():
+            model = load_policy(folder, side)
+            theirs, mine = dict(model.config["network"]), dict(self.learners[side].network)
+            if mine.get("kind") == "entities":
+                theirs.pop("obs_dim", None), mine.pop("obs_dim", None)
+            differ = sorted(k for k in set(theirs) | set(mine) if theirs.get(k) != mine.get(k))
+            if differ:
+                shown = "; ".join(f"{k}: {theirs.get(k)!r} there, {mine.get(k)!r} here" for k in differ)
+                raise ValueError(f"--init {folder}: another network than this run's ({shown}): give the model's hyperparameters with --hp, or none")
+            self.learners[side].actor.load_state_dict(model.actor.state_dict())
 
     def _load_resume_state(self) -> dict | None:
         candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
@@ -324,6 +346,8 @@ class Trainer:
                 self._evaluate(time.perf_counter() - t_start - eval_s, phase="imitation")
                 eval_s += time.perf_counter() - te
                 (self.out / "imitation.json").write_text(json.dumps(rounds, indent=1) + "\n")
+                critic_only = self.CRITIC_WARMUP_UPDATES
+            if spec.init and self.updates == 0:
                 critic_only = self.CRITIC_WARMUP_UPDATES
             outs = [env.reset() for env in self.envs]
             # The step's outputs go into these arrays, step after step (the learners copy what
@@ -430,8 +454,9 @@ class Trainer:
     #: budget, and at the end.
     CHECKPOINTS = 5
 
-    #: PPO updates after an imitation warm start in which only the critics learn: the cloned
-    #: actor meets a critic that has seen its returns before any policy gradient moves it.
+    #: PPO updates after an imitation warm start or a start from a saved model (``--init``) in
+    #: which only the critics learn: the actor meets a critic that has seen its returns before
+    #: any policy gradient moves it.
     CRITIC_WARMUP_UPDATES = 3
 
     def _bar_position(self, train_s: float) -> int:
@@ -553,6 +578,7 @@ class Trainer:
                 "recipe": self.spec.recipes[side],
                 "opponent": self.spec.opponent,
                 "opponent_pool": list(self.spec.opponent_pool) if len(self.spec.opponent_pool) > 1 else None,
+                "init": self.spec.init.get(side),
                 "seed": self.spec.seed,
                 "command": self.spec.command,
                 "versions": versions(),
