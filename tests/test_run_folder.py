@@ -78,7 +78,7 @@ def _stop_during_start_up(monkeypatch):
     def interrupted(out):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(trainer, "_tensorboard", interrupted)
+    monkeypatch.setattr(trainer, "tensorboard", interrupted)
 
 
 @pytest.mark.parametrize("resume", [False, True], ids=["rerun", "resume"])

@@ -64,10 +64,10 @@ from wolfpack.batch import resolve_params
 from wolfpack.cli.args import int_at_least, positive_number
 from wolfpack.config import parse_override
 from wolfpack.evaluation import HELD_OUT_SEED, report
+from wolfpack.learn.checkpoints import TRAINER_FILE
 from wolfpack.learn.matches import play
 from wolfpack.learn.recipes import ALGOS, recipe, recipes_params_overrides
 from wolfpack.learn.sb3 import TrainedModel, load_model, prepare_out
-from wolfpack.learn.trainer import TRAINER_FILE
 from wolfpack.models import CONFIG_FILE, load_tensors
 from wolfpack.report.league import league_curves, league_table, members_of, win_rate
 from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES, side_action_mode

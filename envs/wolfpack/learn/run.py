@@ -356,7 +356,7 @@ def run_training(options: TrainOptions) -> dict:
         if not resume:
             import yaml
 
-            from wolfpack.learn.trainer import _plain, versions
+            from wolfpack.learn.checkpoints import plain, versions
 
             out.mkdir(parents=True, exist_ok=True)
             _clear_start_up(out)
@@ -371,11 +371,11 @@ def run_training(options: TrainOptions) -> dict:
                 "torch_threads": spec.torch_threads,
                 "versions": versions(),
             }
-            (out / CONFIG_FILE).write_text(yaml.safe_dump(_plain(config), sort_keys=False))
+            (out / CONFIG_FILE).write_text(yaml.safe_dump(plain(config), sort_keys=False))
         return trainer.run()
     except KeyboardInterrupt:
         # The exit-status table promises one line saying what --out holds.
-        from wolfpack.learn.trainer import TRAINER_FILE
+        from wolfpack.learn.checkpoints import TRAINER_FILE
 
         if (out / TRAINER_FILE).is_file():
             raise Interrupted(f"; {out} holds the models and the resume state at {trainer.agent_steps:,} agent-steps: continue with --resume") from None

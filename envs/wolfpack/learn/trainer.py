@@ -26,9 +26,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import platform
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,19 +35,16 @@ import numpy as np
 import torch
 import yaml
 
-from wolfpack import _core
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
+from wolfpack.learn.checkpoints import TRAINER_FILE, latest_resume_state, plain, versions, write_atomic
 from wolfpack.learn.ppo import SideLearner
-from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy, load_tensors
+from wolfpack.learn.progress import BASE_COLUMNS, EVAL_COLUMNS, SIDE_COLUMNS, cell, postfix, progress_bar, tensorboard
+from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy
 from wolfpack.opponents import Opponent, as_opponent, opponent_side
 from wolfpack.scorecard import best_law, load_baselines
 from wolfpack.sides import SIDES
 
-TRAINER_FILE = "trainer.pt"
-BASE_COLUMNS = ("update", "wall_s", "agent_steps", "agent_steps_per_s", "rollout_s", "update_s", "episodes", "captured_rate", "collision_rate", "timeout_rate", "cornered_rate")
-SIDE_COLUMNS = ("return", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "explained_variance", "learning_rate")
-EVAL_COLUMNS = ("capture_rate", "collision_rate", "median_capture_steps")
 CAPTURED, COLLISION, TIMEOUT, CORNERED = (OUTCOMES.index(k) for k in ("captured", "collision", "timeout", "cornered"))
 
 
@@ -109,20 +103,6 @@ class TrainSpec:
         if self.init:
             identity["init"] = dict(self.init)
         return identity
-
-
-def versions() -> dict:
-    return {
-        "wolfpack": _core.__version__,
-        "torch": str(torch.__version__),
-        "numpy": np.__version__,
-        "python": sys.version.split()[0],
-        "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
-    }
-
-
-def _plain(x: Any) -> Any:
-    return json.loads(json.dumps(x))
 
 
 class Trainer:
@@ -271,13 +251,7 @@ class Trainer:
             self.learners[side].actor.load_state_dict(model.actor.state_dict())
 
     def _load_resume_state(self) -> dict | None:
-        candidates = [self.out / TRAINER_FILE, *(self.out / "checkpoints").glob(f"*/{TRAINER_FILE}")]
-        # Tensors and plain containers only (the generator's state is a tensor): a file is
-        # never run as code, and a truncated or foreign one is a ValueError naming it.
-        states = [(p, _check_resume_state(p, load_tensors(p, map_location=self.device), self.spec.sides)) for p in candidates if p.is_file()]
-        if not states:
-            raise ValueError(f"--resume: {self.out} holds no {TRAINER_FILE} to resume from (the run never reached its first checkpoint)")
-        self._resume_path, state = max(states, key=lambda ps: ps[1]["agent_steps"])
+        self._resume_path, state = latest_resume_state(self.out, self.spec.sides, self.device)
         return state
 
     def _restore(self, state: dict) -> None:
@@ -322,8 +296,8 @@ class Trainer:
         writer = csv.DictWriter(csv_file, fieldnames=columns)
         if new_csv:
             writer.writeheader()
-        tb = _tensorboard(self.out)
-        bar = _progress_bar(spec, self.progress)
+        tb = tensorboard(self.out)
+        bar = progress_bar(spec, self.progress)
         # A resumed run goes on from the cadence it had reached.
         evals_done = ckpts_done = 0
         if spec.timesteps:
@@ -407,7 +381,7 @@ class Trainer:
                     row.update(self._evaluate(self.train_s_before + train_s))
                     eval_s += time.perf_counter() - te
                     evals_done = int(fraction * self.spec.evaluations)
-                writer.writerow({k: _cell(row.get(k)) for k in columns})
+                writer.writerow({k: cell(row.get(k)) for k in columns})
                 csv_file.flush()
                 if tb is not None:
                     for k, v in row.items():
@@ -415,7 +389,7 @@ class Trainer:
                             tb.add_scalar(k, v, self.agent_steps)
                 if bar is not None:
                     bar.update(self._bar_position(train_s) - bar.n)
-                    bar.set_postfix_str(_postfix(row, spec.sides), refresh=False)
+                    bar.set_postfix_str(postfix(row, spec.sides), refresh=False)
                 if fraction >= (ckpts_done + 1) / self.CHECKPOINTS and fraction < 1.0:
                     self._save(self.out / "checkpoints" / f"{self.agent_steps:012d}", train_s, checkpoint=True)
                     ckpts_done = int(fraction * self.CHECKPOINTS)
@@ -584,8 +558,8 @@ class Trainer:
                 "versions": versions(),
                 "params": self.spec.params,
             }
-            _write(model_dir / CONFIG_FILE, lambda p: p.write_text(yaml.safe_dump(_plain(config), sort_keys=False)))
-            _write(model_dir / POLICY_FILE, lambda p, a=learner.actor: torch.save({k: v.cpu() for k, v in a.state_dict().items()}, p))
+            write_atomic(model_dir / CONFIG_FILE, lambda p: p.write_text(yaml.safe_dump(plain(config), sort_keys=False)))
+            write_atomic(model_dir / POLICY_FILE, lambda p, a=learner.actor: torch.save({k: v.cpu() for k, v in a.state_dict().items()}, p))
         state = {
             "learners": {side: learner.state_dict() for side, learner in self.learners.items()},
             "generator": self.generator.get_state(),
@@ -595,7 +569,7 @@ class Trainer:
             "train_s": self.train_s_before + train_s,
             "resumes": self.resumes,
         }
-        _write(folder / TRAINER_FILE, lambda p: torch.save(state, p))
+        write_atomic(folder / TRAINER_FILE, lambda p: torch.save(state, p))
 
 
 def _mean_of(values) -> float | None:
@@ -609,59 +583,3 @@ def _entity_shape(side: str, params: dict) -> tuple[int, int, int] | None:
     """(own features, row size, state row size) of ``side``'s entity observation, or None."""
     shape = entity_shape(side, params)
     return (*shape, len(ENTITY_STATE_FIELDS)) if shape else None
-
-
-def _check_resume_state(path: Path, state: Any, sides: tuple[str, ...]) -> dict:
-    """``state`` if it is a resume state of these sides (what :meth:`Trainer._save` writes);
-    ValueError naming ``path`` and what is missing otherwise."""
-    counters = ("updates", "agent_steps", "resumes")
-    if not isinstance(state, dict):
-        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train'")
-    missing = [k for k in ("learners", "generator", *counters, "train_s") if k not in state]
-    if not missing:
-        missing = [f"learners.{side}" for side in sides if not isinstance(state["learners"], dict) or not isinstance(state["learners"].get(side), dict)]
-    if missing:
-        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train' (it lacks {', '.join(missing)})")
-    if not isinstance(state["generator"], torch.Tensor) or not all(isinstance(state[k], int) and not isinstance(state[k], bool) and state[k] >= 0 for k in counters):
-        raise ValueError(f"--resume: {path}: not a resume state of 'wolfpack train' (its generator or counters are of another kind)")
-    return state
-
-
-def _write(path: Path, writer) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    writer(tmp)
-    os.replace(tmp, path)
-
-
-def _cell(v: Any) -> Any:
-    if isinstance(v, float):
-        return "" if math.isnan(v) else f"{v:.6g}"
-    return "" if v is None else v
-
-
-def _tensorboard(out: Path):
-    try:
-        from torch.utils.tensorboard import SummaryWriter
-    except ImportError:  # tensorboard is in the [train] extra; progress.csv has the same numbers
-        return None
-    return SummaryWriter(str(out))
-
-
-def _progress_bar(spec: TrainSpec, enabled: bool):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    budget = f"{spec.time_limit_min:g} min" if spec.time_limit_min else f"{spec.timesteps:,} agent-steps"
-    return tqdm(total=1000, desc=f"{spec.learners} {spec.algo} ({budget})", unit="‰", bar_format="{desc}: {percentage:3.0f}%|{bar:20}| {elapsed}<{remaining} {postfix}", file=sys.stderr)
-
-
-def _postfix(row: dict, sides: tuple[str, ...]) -> str:
-    def pct(v):
-        return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{100 * v:.0f}%"
-
-    text = f"{row['agent_steps_per_s'] / 1000:.0f}k agent-steps/s, captured {pct(row['captured_rate'])}, collision {pct(row['collision_rate'])}"
-    for side in sides:
-        if f"eval_{side}_capture_rate" in row:
-            text += f", held-out {side} {pct(row[f'eval_{side}_capture_rate'])}"
-    return text
