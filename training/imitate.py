@@ -35,7 +35,6 @@ import shlex
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from wolfpack.cli.args import int_at_least
@@ -93,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         params = env_params(args.params, args.sets)
-        hp = hyperparams(Path(__file__).with_name("hyperparams.yaml"), args.algo, False, args.hps)
+        hp = hyperparams(args.algo, False, args.hps)
         out = prepare_out(args.out)
         if not 0.0 <= args.beta <= 1.0 or not 0.0 <= args.decay <= 1.0:
             raise ValueError(f"--beta and --decay must lie in [0, 1], got {args.beta} and {args.decay}")

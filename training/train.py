@@ -29,7 +29,7 @@ Writes into --out (created if missing):
 
 Held-out evaluation uses episodes HELD_OUT_SEED + k (500000 + k), never seen in training (training
 worlds are seeded 1000000·(seed+1) + e); evaluate.py's default seeds 0.. are disjoint from both.
-Hyperparameters: training/hyperparams.yaml, overridable with --hp key=value. Bad arguments exit
+Hyperparameters: wolfpack/learn/sb3_hyperparams.yaml, overridable with --hp key=value. Bad arguments exit
 with status 2 and one line on stderr.
 """
 
@@ -45,12 +45,11 @@ from pathlib import Path
 import yaml
 from wolfpack.cli.args import int_at_least
 from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
-from wolfpack.learn.sb3 import SB3_ALGOS, Stopwatch, algorithms, env_params, hyperparams, load_model, observation_size, prepare_out, sb3_kwargs, versions, write_config
+from wolfpack.learn.sb3 import HYPERPARAMS_PATH, SB3_ALGOS, Stopwatch, algorithms, env_params, hyperparams, load_model, observation_size, prepare_out, sb3_kwargs, versions, write_config
 from wolfpack.models import MODEL_FILE
 from wolfpack.sides import SIDES
 
 #: The SB3 hyperparameters: each algorithm's section, and its fine-tuning section.
-HYPERPARAMS_PATH = Path(__file__).with_name("hyperparams.yaml")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -66,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the training worlds and of torch (default 0)")
     p.add_argument("--out", required=True, help="run folder")
     p.add_argument("--init-from", default=None, metavar="DIR", help="start from this run's model (e.g. imitate.py's output)")
-    p.add_argument("--num-envs", type=int_at_least(1), default=None, help="worlds in the VecEnv (default: hyperparams.yaml num_envs.<side>)")
+    p.add_argument("--num-envs", type=int_at_least(1), default=None, help="worlds in the VecEnv (default: sb3_hyperparams.yaml num_envs.<side>)")
     p.add_argument("--eval-freq", type=int_at_least(1), default=None, help="held-out evaluation every this many timesteps (default timesteps/10, and with --time-limit every tenth of it too)")
     p.add_argument("--eval-episodes", type=int_at_least(1), default=100, help="episodes per held-out evaluation (default 100)")
     p.add_argument("--checkpoint-freq", type=int_at_least(1), default=None, help="checkpoint every this many timesteps (default timesteps/5, and with --time-limit every fifth of it too)")
@@ -300,11 +299,11 @@ def main(argv: list[str] | None = None) -> int:
         params = env_params(base, args.sets)
         if source is not None:
             check_same_spaces(source, params, args.side)
-        hp = hyperparams(HYPERPARAMS_PATH, args.algo, source is not None, args.hps)
+        hp = hyperparams(args.algo, source is not None, args.hps)
         if source is not None:
             # The architecture must be the source's, or its weights do not fit.
             hp["policy_kwargs"] = source.config["hyperparams"].get("policy_kwargs", {})
-        table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
+        table = yaml.safe_load(HYPERPARAMS_PATH.read_text())  # num_envs.<side>
         num_envs = args.num_envs or int(table["num_envs"][args.side])
         out = prepare_out(args.out)
     except ValueError as e:

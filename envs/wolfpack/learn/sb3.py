@@ -54,11 +54,16 @@ def env_params(params_path: str | None, sets: Sequence[str], side: str | None = 
     return resolve_params(params_path, overrides)
 
 
-def hyperparams(path: str | Path, algo: str, finetune: bool, sets: Sequence[str]) -> dict:
-    """SB3 keyword arguments for ``algo``: the ``<algo>`` section of the YAML file ``path``
-    (``training/hyperparams.yaml``), then its ``finetune.<algo>`` section when starting from
-    another model, then ``--hp k=v``."""
-    table = yaml.safe_load(Path(path).read_text())
+#: The SB3 path's hyperparameters (kept apart from the environment's ``params.yaml`` and the
+#: native trainer's ``recipes.yaml``): a section per algorithm, ``finetune.<algo>`` on top when a
+#: run starts from another model, ``num_envs.<side>``.
+HYPERPARAMS_PATH = Path(__file__).with_name("sb3_hyperparams.yaml")
+
+
+def hyperparams(algo: str, finetune: bool, sets: Sequence[str]) -> dict:
+    """SB3 keyword arguments for ``algo``: the ``<algo>`` section of :data:`HYPERPARAMS_PATH`,
+    then its ``finetune.<algo>`` section when starting from another model, then ``--hp k=v``."""
+    table = yaml.safe_load(HYPERPARAMS_PATH.read_text())
     hp = dict(table[algo])
     if finetune:
         hp.update(table.get("finetune", {}).get(algo, {}))
