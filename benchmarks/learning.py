@@ -34,7 +34,9 @@ from typing import Any
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
-from peers import COUNTS, attempt, bench_mpe2, bench_vmas, machine_info, median_rate, note, usable_cores
+from machine import machine_info, usable_cores
+from peer_contenders import attempt, bench_mpe2, bench_vmas, median_rate, note
+from peer_scenarios import COUNTS
 
 
 def bench_vec_env(num_envs: int, steps: int, threads: int | None, repeats: int) -> dict:

@@ -9,7 +9,7 @@ scenario (see BENCHMARKS.md, "Learning"):
 - **native-entities**: the same with entity observations and the set network
   (``--hp network=entities``, docs/learning.md "One model for every task");
 - **sb3**: ``training/train.py --side SIDE --algo ppo`` (SB3's PPO on ``make_vec_env``, the
-  hyperparameters of ``training/hyperparams.yaml``).
+  hyperparameters of ``wolfpack/learn/sb3_hyperparams.yaml``).
 
 Both evaluate the deterministic policy on the same held-out episodes (seeds 500000 + k) at
 regular points of the run. Reported per trainer: agent-steps/s end to end (training wall time,
@@ -46,7 +46,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-from peers import machine_info  # noqa: E402
+from machine import machine_info  # noqa: E402
 
 LEVELS = (0.80, 0.90, 0.95)
 TRAINERS = ("native", "native-entities", "sb3")

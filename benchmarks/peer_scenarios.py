@@ -1,5 +1,6 @@
-"""The scenario every peer is built at, shared by ``peers.py`` (main virtualenv) and
-``peer_worker.py`` (``.venv-peers``): standard library only at import, so both can use it."""
+"""The scenario every peer is built at, shared by ``peers.py`` and ``peer_contenders.py`` (main
+virtualenv) and ``peer_worker.py`` (``.venv-peers``): standard library only at import, so both
+can use it."""
 
 from __future__ import annotations
 

@@ -35,7 +35,9 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # pygame (mpe2) without a dis
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import numpy as np
-from peers import COUNTS, attempt, machine_info, median_rate
+from machine import machine_info
+from peer_contenders import attempt, median_rate
+from peer_scenarios import COUNTS
 
 SIZE = 700  # mpe2's screen is 700 x 700 pixels
 

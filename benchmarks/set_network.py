@@ -34,7 +34,7 @@ keep_freed_memory()
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import wolfpack  # noqa: E402
-from peers import machine_info  # noqa: E402
+from machine import machine_info  # noqa: E402
 from wolfpack.batch import entity_shape  # noqa: E402
 from wolfpack.learn.ppo import SideLearner  # noqa: E402
 from wolfpack.learn.recipes import params_overrides, recipe  # noqa: E402

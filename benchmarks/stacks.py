@@ -41,7 +41,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 import wolfpack
-from peers import machine_info
+from machine import machine_info
 from wolfpack import _core
 
 

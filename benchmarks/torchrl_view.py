@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 import torch
-from peers import machine_info
+from machine import machine_info
 from under_load import rate as batch_rate  #  (the same timing of BatchEnv.step)
 from wolfpack import BatchEnv
 from wolfpack.torchrl_env import WolfpackEnv

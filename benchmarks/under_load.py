@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from peers import machine_info
+from machine import machine_info
 from wolfpack import BatchEnv
 
 SPIN = "while True: pass"

@@ -135,11 +135,14 @@ def test_under_load_benchmark_runs_with_a_busy_process_and_stops_it(tmp_path):
     assert spinning.stdout.strip() == "", "a busy process outlived the benchmark"
 
 
-def _peers_module(monkeypatch):
-    if not SCRIPT.exists():
-        pytest.skip("benchmarks/peers.py is not part of this checkout")
-    monkeypatch.syspath_prepend(str(SCRIPT.parent))  # its sibling modules, as when run as a script
-    spec = importlib.util.spec_from_file_location("wolfpack_bench_peers", SCRIPT)
+def _bench_module(monkeypatch, name: str):
+    """benchmarks/NAME.py, loaded by file path under a private name (its sibling modules
+    importable, as when a script runs)."""
+    path = SCRIPT.with_name(f"{name}.py")
+    if not path.exists():
+        pytest.skip(f"benchmarks/{name}.py is not part of this checkout")
+    monkeypatch.syspath_prepend(str(SCRIPT.parent))
+    spec = importlib.util.spec_from_file_location(f"wolfpack_bench_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -148,27 +151,27 @@ def _peers_module(monkeypatch):
 def test_ratios_to_jaxmarl_pair_the_rates_of_each_round(monkeypatch) -> None:
     """'lowest round' pairs our rate with the best JaxMARL variant of the same round (hand-worked:
     3/1.5, 6/2, 9/4), so a machine that speeds up between rounds does not flatter either side."""
-    peers = _peers_module(monkeypatch)
+    tables = _bench_module(monkeypatch, "peer_tables")
     row = {
         "batch_env_2t": {"rates": [3.0, 6.0, 9.0], "env_steps_per_second": 6.0},
         "jaxmarl_loop": {"rates": [1.0, 2.0, 4.0], "env_steps_per_second": 2.0},
         "jaxmarl_scan": {"rates": [1.5, 1.0, 3.0], "env_steps_per_second": 1.5},
     }
-    r = peers.size_ratios(row, [1, 2])
+    r = tables.size_ratios(row, [1, 2])
     assert r["BatchEnv(2t) / JaxMARL best"] == pytest.approx(3.0)  # medians: 6 / max(2, 1.5)
     assert r["BatchEnv(2t) / JaxMARL best, each round"] == pytest.approx([2.0, 3.0, 2.25])
     assert r["BatchEnv(2t) / JaxMARL best, lowest round"] == pytest.approx(2.0)
     row["jaxmarl_scan"] = {"skipped": "jaxmarl is not installed"}
-    assert peers.size_ratios(row, [1, 2])["BatchEnv(2t) / JaxMARL best, each round"] == pytest.approx([3.0, 3.0, 2.25])
+    assert tables.size_ratios(row, [1, 2])["BatchEnv(2t) / JaxMARL best, each round"] == pytest.approx([3.0, 3.0, 2.25])
     row["jaxmarl_loop"] = {"skipped": "jaxmarl is not installed"}
-    r = peers.size_ratios(row, [1, 2])
+    r = tables.size_ratios(row, [1, 2])
     assert r["BatchEnv(2t) / JaxMARL best, each round"] == [] and r["BatchEnv(2t) / JaxMARL best, lowest round"] is None
 
 
 def test_cpu_caches_read_what_one_core_sees_from_sysfs(monkeypatch, tmp_path) -> None:
     """A hand-made sysfs cache tree (Linux's layout: index*/level, type, size) of a 2-core VM
     with 1 MiB L2 per core; an entry without a size and a malformed one are left out."""
-    peers = _peers_module(monkeypatch)
+    machine = _bench_module(monkeypatch, "machine")
     for index, (level, kind, size) in enumerate([("1", "Data", "32K"), ("1", "Instruction", "32K"), ("2", "Unified", "1024K"), ("3", "Unified", "32768K"), ("4", "Unified", "huge")]):
         d = tmp_path / f"index{index}"
         d.mkdir()
@@ -176,7 +179,7 @@ def test_cpu_caches_read_what_one_core_sees_from_sysfs(monkeypatch, tmp_path) ->
             (d / name).write_text(text + "\n", encoding="ascii")
     (tmp_path / "index9").mkdir()  # no files: skipped
     (tmp_path / "uevent").write_text("", encoding="ascii")
-    caches = peers.cpu_caches(tmp_path)
+    caches = machine.cpu_caches(tmp_path)
     assert caches == {"L1d": 32 * 1024, "L1i": 32 * 1024, "L2": 1024**2, "L3": 32 * 1024**2}
-    assert peers.caches_text(caches) == ", caches L2 1 MiB, L3 32 MiB"
-    assert peers.caches_text({}) == "" and peers.cpu_caches(tmp_path / "missing") == {}
+    assert machine.caches_text(caches) == ", caches L2 1 MiB, L3 32 MiB"
+    assert machine.caches_text({}) == "" and machine.cpu_caches(tmp_path / "missing") == {}
