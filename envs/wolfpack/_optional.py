@@ -9,7 +9,7 @@ import importlib
 from types import ModuleType
 
 #: The pip distribution that provides each optional module, and the extra that installs it.
-PROVIDERS = {"stable_baselines3": ("stable-baselines3", "train"), "torch": ("torch", "train"), "minari": ("minari", "dataset"), "torchrl": ("torchrl", "torchrl")}
+PROVIDERS = {"stable_baselines3": ("stable-baselines3", "train"), "torch": ("torch", "train"), "minari": ("minari", "dataset"), "torchrl": ("torchrl", "torchrl"), "ray": ("ray", "rllib")}
 
 
 def require(module: str, what: str) -> ModuleType:

@@ -63,6 +63,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--targets", metavar="POLICY", nargs="+", default=None, help="the targets' first members: laws or saved target models (default: the task's target law)")
     p.add_argument("--jobs", metavar="J", type=int_at_least(1, 2), default=1, help="1, or 2: both sides' runs of a step at once (default 1)")
     p.add_argument(
+        "--cluster",
+        metavar="RAY",
+        default=None,
+        help="train the runs as Ray tasks (the [rllib] extra's ray): 'local' (a Ray started on this machine for the job), 'auto' (the cluster this machine joined with 'ray start') or a Ray address; on a cluster every node must see --out at the same path and have wolfpack installed (default: child processes here)",
+    )
+    p.add_argument(
         "--fine-tune",
         action="store_true",
         help="each run of a side starts from the side's newest saved model (wolfpack train --init) instead of from scratch: e.g. --wolves <a trained pack> --fine-tune improves that pack against every best response",
@@ -93,6 +99,7 @@ def cmd_league(args: argparse.Namespace, argv: Sequence[str]) -> None:
             wolves=args.wolves,
             targets=args.targets,
             jobs=args.jobs,
+            cluster=args.cluster,
             fine_tune=args.fine_tune,
             resume=args.resume,
             progress=done,

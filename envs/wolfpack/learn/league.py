@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -40,7 +39,7 @@ import numpy as np
 
 from wolfpack.evaluation import report, rollout
 from wolfpack.learn.meta import nash
-from wolfpack.learn.runs import RunError, check_player, prepare, threads_per_run, train
+from wolfpack.learn.runs import RunError, TrainRun, check_cluster, check_player, prepare, threads_per_run, train_all
 from wolfpack.logs import write_json_atomic
 from wolfpack.models import load_policy, native_model_folders
 from wolfpack.opponents import Opponent
@@ -153,6 +152,7 @@ def league(
     wolves: Sequence[str] | None = None,
     targets: Sequence[str] | None = None,
     jobs: int = 1,
+    cluster: str | None = None,
     fine_tune: bool = False,
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
@@ -162,7 +162,7 @@ def league(
     value, each mixture's exploitability and NashConv, the best responses' models and training
     times), ``final`` (the final mixtures and the final policy of each side), the payoff matrix
     and ``wall_s``. ``jobs`` = 2 trains both sides' runs of a step at once, on half the cores
-    each; ``fine_tune``: each run of a side starts from the side's newest saved model of
+    each (here, or on Ray: ``cluster``, see :func:`wolfpack.learn.runs.train_all`); ``fine_tune``: each run of a side starts from the side's newest saved model of
     ``wolfpack train`` (``--init``: a pack improved against the best responses it met, rather
     than a new one from scratch every iteration); ``progress`` is called with each iteration's
     record."""
@@ -170,6 +170,7 @@ def league(
     the_plan = plan(iterations, budget, task, episodes, seed, wolves, targets, fine_tune)
     if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs not in (1, 2):
         raise LeagueError(f"--jobs {jobs}: 1 or 2 (the two sides' runs of a step)")
+    check_cluster(cluster, LeagueError)
     prepare(out, the_plan, resume, RESULT_FILE, "league")
     threads = threads_per_run(jobs)
     payoffs = Payoffs(out, task, episodes)
@@ -178,20 +179,16 @@ def league(
     records = []
 
     def train_both(folder: Path, opponents: dict[str, list[str]], run_seed: int) -> dict[str, dict]:
-        def one(side: str) -> dict:
+        def run(side: str) -> TrainRun:
             options = ["--side", side, "--task", task, "--timesteps", str(budget), "--seed", str(run_seed), "--eval-episodes", str(episodes), "--evaluations", str(EVALUATIONS)]
             options += [a for o in opponents[side] for a in ("--opponent", o)]
             options += ["--threads", str(threads), "--torch-threads", str(threads)]
             start = newest_model(pops[side]) if fine_tune else None
             if start is not None:
                 options += ["--init", start]
-            return train(folder / side, options, out / LOGS_DIR / f"{folder.name}_{side}.log")
+            return TrainRun(folder / side, options, out / LOGS_DIR / f"{folder.name}_{side}.log")
 
-        if jobs == 1:
-            return {side: one(side) for side in SIDES}
-        with ThreadPoolExecutor(max_workers=2) as ex:
-            futures = {side: ex.submit(one, side) for side in SIDES}
-            return {side: f.result() for side, f in futures.items()}
+        return dict(zip(SIDES, train_all([run(side) for side in SIDES], jobs, cluster)))
 
     for it in range(1, iterations + 1):
         m = payoffs.matrix(pops["wolves"], pops["targets"])

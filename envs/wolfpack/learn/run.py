@@ -17,7 +17,7 @@ from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.interrupt import Interrupted
 from wolfpack.learn.recipes import ALGOS, LEARNERS, check_memory, recipe, recipes_params_overrides, rollout_bytes
 from wolfpack.learn.tasks import TASK_WEIGHTS, task_list, world_groups
-from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy, read_config
+from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy, native_model_folders, read_config
 from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -192,8 +192,6 @@ def init_models(given: Any, sides: Sequence[str]) -> dict:
     run folder, which gives the model of each learning side it holds), loaded and checked:
     ``{side: NativePolicy}``. ValueError naming the folder: not such a model, a model of a side
     that does not learn in this run, two for one side."""
-    from wolfpack.models import native_model_folders
-
     paths = [given] if isinstance(given, (str, os.PathLike)) else list(given or [])
     models: dict = {}
     for path in paths:

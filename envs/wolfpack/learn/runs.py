@@ -6,6 +6,15 @@ result file (written last): a folder without the result is unfinished, and ``res
 continues it only with the same plan. Each run is a ``wolfpack train`` run folder: one whose
 ``summary.json`` exists is finished and read back; one cut short after its first saved state
 continues with the trainer's own ``--resume``; one cut short before it starts again.
+
+The runs of a step are independent, and :func:`train_all` trains them where the job says:
+here, several at once in child processes (the default), or as tasks of Ray (``cluster``), the
+distributed engine the RLlib path already uses: a Ray started on this machine for the job
+(``"local"``), or a running cluster (``"auto"`` or its address) whose nodes see the job's
+folder at the same path (a shared file system) and have wolfpack installed. Where a run trains
+does not change what it learns: a run is bit-identical given its seed and its thread counts
+(docs/interface.md, "wolfpack train"), and each run gets this machine's cores / ``jobs``
+wherever it trains.
 """
 
 from __future__ import annotations
@@ -14,9 +23,11 @@ import json
 import shutil
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, NamedTuple, Sequence
 
+from wolfpack._optional import require
 from wolfpack.learn.run import default_threads
 from wolfpack.logs import write_json_atomic
 from wolfpack.opponents import Opponent
@@ -90,6 +101,85 @@ def train(folder: Path, options: Sequence[str], log: Path) -> dict:
             lines = log.read_text(encoding="utf-8", errors="replace").strip().splitlines()
             raise RuntimeError(f"the training run {folder} failed (exit {code}): {lines[-1] if lines else 'no output'} (log: {log})")
     return json.loads(summary_path.read_text(encoding="utf-8"))
+
+
+class TrainRun(NamedTuple):
+    """One ``wolfpack train`` run of a job: its folder, its options and its log."""
+
+    folder: Path
+    options: Sequence[str]
+    log: Path
+
+
+#: ``cluster`` values that are not an address: Ray started on this machine for the job.
+LOCAL_RAY = "local"
+
+
+def check_cluster(cluster: str | None, error: type[RunError] = RunError) -> None:
+    """``cluster`` is None (child processes here), ``"local"`` or a Ray address; with Ray, Ray
+    must be installed (the ``[rllib]`` extra). ``error`` in one line otherwise."""
+    if cluster is None:
+        return
+    if not isinstance(cluster, str) or not cluster.strip():
+        raise error(f"--cluster {cluster!r}: 'local', 'auto' or a Ray address such as ray://head:10001")
+    try:
+        require("ray", "--cluster")
+    except ImportError as err:
+        raise error(str(err)) from None
+
+
+def train_all(runs: Sequence[TrainRun], jobs: int, cluster: str | None = None, done: Callable[[int, dict], None] | None = None) -> list[dict]:
+    """The summaries of ``runs`` (:func:`train` each), in their order; ``done(k, summary)`` is
+    called as run k finishes. ``cluster`` None: ``jobs`` at once here, each in a child process;
+    else as Ray tasks of ``cores / jobs`` CPUs each (:func:`check_cluster`). Ctrl-C stops every
+    run (each child process is killed; its folder continues with the trainer's ``--resume``)."""
+    results: list[dict | None] = [None] * len(runs)
+
+    def finished(k: int, summary: dict) -> None:
+        results[k] = summary
+        if done is not None:
+            done(k, summary)
+
+    if cluster is not None:
+        _train_on_ray(runs, jobs, cluster, finished)
+    elif jobs == 1:
+        for k, run in enumerate(runs):
+            finished(k, train(*run))
+    else:
+        with ThreadPoolExecutor(max_workers=jobs) as pool:
+            futures = {pool.submit(train, *run): k for k, run in enumerate(runs)}
+            for future in as_completed(futures):
+                finished(futures[future], future.result())
+    return results  # type: ignore[return-value]
+
+
+def _train_on_ray(runs: Sequence[TrainRun], jobs: int, cluster: str, finished: Callable[[int, dict], None]) -> None:
+    """:func:`train` of each run as a Ray task (the worker starts the same child process as a
+    run here does). Ray started for the job is stopped after it; a cluster is left running."""
+    ray = require("ray", "--cluster")
+    started_here = not ray.is_initialized()
+    if started_here:
+        if cluster == LOCAL_RAY:
+            ray.init(num_cpus=default_threads()[0], include_dashboard=False, log_to_driver=False, configure_logging=False)
+        else:
+            ray.init(address=cluster, log_to_driver=False, configure_logging=False)
+    try:
+        task = ray.remote(num_cpus=threads_per_run(jobs), max_retries=0)(train)
+        pending = {task.remote(run.folder.resolve(), list(run.options), run.log.resolve()): k for k, run in enumerate(runs)}
+        try:
+            while pending:
+                ready, _ = ray.wait(list(pending), num_returns=1)
+                k = pending.pop(ready[0])
+                finished(k, ray.get(ready[0]))
+        except BaseException:
+            # Ctrl-C (or a failed run): stop the others. A cancelled task gets KeyboardInterrupt,
+            # on which subprocess.run kills its child.
+            for ref in pending:
+                ray.cancel(ref)
+            raise
+    finally:
+        if started_here:
+            ray.shutdown()
 
 
 #: The file in a run folder that holds its held-out evaluation.
