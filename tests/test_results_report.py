@@ -138,3 +138,18 @@ def test_the_pool_column_follows_the_pool_the_seeds_trained_against(copied):
     configs[0].write_text(configs[0].read_text().replace("- escape\n", "", 1))
     with pytest.raises(ValueError, match="different pools"):
         results_tables.wolves_pool_seeds(Results(results, checkout=ROOT))
+
+
+def test_a_way_of_training_is_as_exploitable_as_the_iqm_of_its_training_seeds():
+    from wolfpack.report.exploitability import over_training_seeds
+
+    def exploit(rates):
+        return {"budgets": [{"agent_steps": 2_000_000, "iqm": sum(rates) / len(rates), "ci95": [min(rates), max(rates)], "per_seed": [{"rate": r} for r in rates]}]}
+
+    text = over_training_seeds({"seed 0": exploit([0.1, 0.3]), "seed 1": exploit([0.5, 0.5]), "seed 2": exploit([0.9, 0.9]), "seed 3": exploit([0.6, 0.6])})
+    rows = text.strip().splitlines()
+    assert rows[2] == "| seed 0 | 2,000,000 | 20.0 % [10.0, 30.0] | 10.0, 30.0 |"
+    # The IQM of four packs (0.2, 0.5, 0.9, 0.6): the middle two, 0.5 and 0.6.
+    assert rows[-1].startswith("| **4 training seeds** | | **55.0 % [") and "median 55.0 % (20.0–90.0)" in rows[-1]
+    with pytest.raises(ValueError, match="one budget per pack"):
+        over_training_seeds({"seed 0": {"budgets": [exploit([0.1])["budgets"][0]] * 2}})

@@ -451,6 +451,20 @@ def exploitability_table(results: Results) -> str:
     return exploitability_report.table(results.json("benchmark/exploitability/exploitability.json"))
 
 
+@block("generalist-exploitability")
+def generalist_exploitability(results: Results) -> str:
+    """The warm-started generalist's exploitability on hunt-v1, per training seed measured
+    (``learned/generalist/imitation-exploit-seed<S>/exploit.json``) and over them."""
+    docs = {}
+    for folder in sorted((results.root / "learned" / "generalist").glob("imitation-exploit-seed*"), key=lambda p: int(p.name.rsplit("seed", 1)[1])):
+        seed = folder.name.rsplit("seed", 1)[1]
+        config = results.yaml(f"learned/generalist/imitation-seed{seed}/config.yaml")
+        rounds = len(results.json(f"learned/generalist/imitation-seed{seed}/imitation.json"))
+        clone = f"`--imitate-rounds {config['imitate_rounds']}`" if config.get("imitate_rounds") else f"`--imitate {config['imitate_min']:g}`: {rounds} rounds"
+        docs[f"seed {seed} ({clone})"] = results.json(f"learned/generalist/{folder.name}/exploit.json")
+    return exploitability_report.over_training_seeds(docs)
+
+
 @block("front-page-benchmark")
 def front_page_benchmark(results: Results) -> str:
     """README's short benchmark table: per task the best law and the best learner of each side."""
