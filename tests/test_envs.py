@@ -209,7 +209,7 @@ def test_one_worlds_agent_infos_are_that_worlds_share_of_every_worlds():
     and any range of agents, the very dicts of ``agent_infos`` over the whole output: the same
     keys, values and Python types — over captures, cornerings, collisions and timeouts, with
     two targets so that the capture steps of wolves and targets differ."""
-    from wolfpack.batch import agent_infos, world_agent_infos
+    from wolfpack.views import agent_infos, world_agent_infos
 
     batch = wolfpack.BatchEnv(num_envs=12, learners="none", seed=5, **{"world.targets": 2, "capture.cornered": True, "world.max_steps": 150})
     batch.reset()

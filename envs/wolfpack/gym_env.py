@@ -35,9 +35,10 @@ import gymnasium
 import numpy as np
 
 from wolfpack._checks import check_seed
-from wolfpack.batch import BatchEnv, agent_infos, check_action, rebuild
+from wolfpack.batch import BatchEnv, rebuild
 from wolfpack.parallel_env import action_box, check_render_mode, check_render_options, observation_box
 from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
+from wolfpack.views import agent_infos, check_action
 
 
 class EscapeEnv(gymnasium.Env):

@@ -123,8 +123,9 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from wolfpack.batch import BatchEnv, SharedObservation, agent_infos, check_action, check_shared_space, rebuild
+from wolfpack.batch import BatchEnv, rebuild
 from wolfpack.render import RENDER_MODES, EnvRendering, FrameOptions
+from wolfpack.views import SharedObservation, agent_infos, check_action, check_shared_space
 
 
 def action_box() -> spaces.Box:

@@ -60,8 +60,9 @@ import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from wolfpack._checks import check_seed
-from wolfpack.batch import OUTCOMES, BatchEnv, SharedObservation, agent_infos, check_shared_space, rebuild, world_agent_infos
+from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
 from wolfpack.parallel_env import action_box, observation_box
+from wolfpack.views import SharedObservation, agent_infos, check_shared_space, world_agent_infos
 
 #: The info of every slot whose world is still running after a step: empty and read-only
 #: (``RUNNING_INFO["x"] = 1`` raises ``TypeError``), shared by all such slots.
