@@ -1,5 +1,6 @@
 """The training loop of ``wolfpack train``: the batch, one :class:`SideLearner` per learning
-side, the budget, evaluations, checkpoints, logs and resuming.
+side, the budget, and when to evaluate (:mod:`~wolfpack.learn.held_out`), log
+(:mod:`~wolfpack.learn.progress`) and save (:mod:`~wolfpack.learn.checkpoints`).
 
 A run folder (``--out DIR``):
 
@@ -36,13 +37,13 @@ import torch
 import yaml
 
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
-from wolfpack.evaluation import HELD_OUT_SEED, TRAIN_SEED_BASE, report, rollout
+from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.learn.checkpoints import TRAINER_FILE, latest_resume_state, plain, versions, write_atomic
+from wolfpack.learn.held_out import HeldOut
 from wolfpack.learn.ppo import SideLearner
 from wolfpack.learn.progress import BASE_COLUMNS, EVAL_COLUMNS, SIDE_COLUMNS, cell, postfix, progress_bar, tensorboard
 from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy
 from wolfpack.opponents import Opponent, as_opponent, opponent_side
-from wolfpack.scorecard import best_law, load_baselines
 from wolfpack.sides import SIDES
 
 CAPTURED, COLLISION, TIMEOUT, CORNERED = (OUTCOMES.index(k) for k in ("captured", "collision", "timeout", "cornered"))
@@ -157,7 +158,6 @@ class Trainer:
         ]
         self.env = self.envs[0]
         self.group_tasks = [task for _, task, _ in groups]
-        self._baselines = load_baselines() if spec.task_weights == "shortfall" else {}
         for env in self.envs:
             for member in pool_members:  # every pool member fits these worlds, up front
                 env._check_opponent_fits(member)
@@ -197,7 +197,7 @@ class Trainer:
             except (KeyError, RuntimeError, TypeError, ValueError) as e:  # another network's state
                 raise ValueError(f"--resume: {self._resume_path}: does not fit this run's networks ({' '.join(str(e).split())[:200]})") from None
         self.agents_per_step = sum(env.num_envs * sum(env.n_wolves if side == "wolves" else env.n_targets for side in spec.sides) for env in self.envs)
-        self.evaluations: list[dict] = json.loads((self.out / "evaluations.json").read_text()) if resume and (self.out / "evaluations.json").is_file() else []
+        self.held_out = HeldOut(spec, self.out, self.group_tasks, resume)
 
     # --- set-up -----------------------------------------------------------------------------------
 
@@ -416,7 +416,7 @@ class Trainer:
                 "agent_steps_per_s": (self.agent_steps - steps_at_start) / train_s if train_s > 0 else None,
             },
             "stopped_by": "interrupt" if interrupted else ("timesteps" if spec.timesteps and self.agent_steps >= spec.timesteps else "time_limit"),
-            "final_evaluation": self.evaluations[-1] if self.evaluations else None,
+            "final_evaluation": self.held_out.records[-1] if self.held_out.records else None,
         }
         (self.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
         if interrupted:
@@ -466,69 +466,9 @@ class Trainer:
     # --- evaluation --------------------------------------------------------------------------------
 
     def _evaluate(self, train_s: float, phase: str = "ppo") -> dict:
-        """Each learning side, deterministic, on the held-out episodes HELD_OUT_SEED + k against
-        the opponent it trains against (both sides learning: the other side's law in params);
-        multi-task, on each task's held-out episodes, the rates averaged over the tasks and each
-        task's kept under ``tasks``. ``train_s``: the run's training seconds so far (evaluations
-        excluded)."""
-        row = {}
-        record: dict[str, Any] = {"agent_steps": self.agent_steps, "update": self.updates, "train_s": train_s, "phase": phase}
-        tasks = self.spec.eval_tasks or (("", self.spec.params),)
-        for side, learner in self.learners.items():
-            policy = learner.policy()
-            reports = {task: self._held_out(side, policy, params) for task, params in tasks}
-            if self.spec.eval_tasks:
-                r = {k: _mean_of(rep[k] for rep in reports.values()) for k in EVAL_COLUMNS}
-                record.setdefault("tasks", {})
-                for task, rep in reports.items():
-                    record["tasks"].setdefault(task, {})[side] = rep
-                    for k in EVAL_COLUMNS[:2]:
-                        row[f"eval_{task}_{side}_{k}"] = rep[k]
-            else:
-                r = reports[""]
-            record[side] = r
-            for k in EVAL_COLUMNS:
-                row[f"eval_{side}_{k}"] = r[k]
-        if self.spec.eval_tasks and self.spec.task_weights != "uniform":
-            self._reweigh(record["tasks"])
-        self.evaluations.append(record)
-        (self.out / "evaluations.json").write_text(json.dumps(self.evaluations, indent=1) + "\n")
-        return row
-
-    def _held_out(self, side: str, policy, params: dict) -> dict:
-        """The report of ``side``'s ``policy`` on the held-out episodes of ``params``."""
-        opponent = self.spec.opponent if self.spec.learners != "both" else None
-        results = rollout(params, episodes=self.spec.eval_episodes, seed=HELD_OUT_SEED, threads=self.spec.threads, opponent=opponent, **{side: policy})
-        wolves = params["policies"]["wolves"] if side == "targets" else side
-        targets = params["policies"]["targets"] if side == "wolves" else side
-        if opponent is not None:
-            wolves, targets = (wolves, str(opponent)) if side == "wolves" else (str(opponent), targets)
-        r = report(results, wolves, targets)
-        r.pop("capture_steps")
-        return r
-
-    #: Adaptive and shortfall task weights: a task's weight is its failure rate (or its
-    #: shortfall) plus this floor, so that a solved task keeps some weight; the weights are
-    #: scaled to mean 1 over the groups.
-    WEIGHT_FLOOR = 0.05
-
-    def _reweigh(self, per_task: dict[str, dict]) -> None:
-        """Moves each side's group weights towards the tasks it does worst on, from the held-out
-        rates (the side's score: the capture rate for wolves, the survival rate for targets).
-        ``adaptive``: a task's weight is 1 − the score. ``shortfall``: how far the score is below
-        the task's best committed law (0 at or above it; 1 − the score for a task no law was
-        scored on): a task that no policy can solve, such as taking two targets, does not take
-        the loss from those a law shows can be solved."""
-        for side, learner in self.learners.items():
-            score = {task: reps[side]["capture_rate"] if side == "wolves" else 1.0 - reps[side]["capture_rate"] for task, reps in per_task.items()}
-            if self.spec.task_weights == "shortfall":
-                laws = {task: best_law(self._baselines, side, task) for task in score}
-                need = {task: max(0.0, laws[task][1] - score[task]) if laws[task] else 1.0 - score[task] for task in score}
-            else:
-                need = {task: 1.0 - score[task] for task in score}
-            raw = [need[task] + self.WEIGHT_FLOOR for task in self.group_tasks]
-            mean = sum(raw) / len(raw)
-            learner.group_weights = [w / mean for w in raw]
+        """The held-out evaluation of every learning side now (:class:`HeldOut`); its entries of
+        progress.csv's row."""
+        return self.held_out.evaluate(self.learners, self.agent_steps, self.updates, train_s, phase)
 
     # --- saving ------------------------------------------------------------------------------------
 
@@ -570,13 +510,6 @@ class Trainer:
             "resumes": self.resumes,
         }
         write_atomic(folder / TRAINER_FILE, lambda p: torch.save(state, p))
-
-
-def _mean_of(values) -> float | None:
-    """The mean of the values that are numbers (a median capture step is None where nothing was
-    captured); None when none is."""
-    numbers = [float(v) for v in values if v is not None]
-    return float(np.mean(numbers)) if numbers else None
 
 
 def _entity_shape(side: str, params: dict) -> tuple[int, int, int] | None:
