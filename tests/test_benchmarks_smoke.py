@@ -85,6 +85,7 @@ def test_render_benchmark_runs_and_compares_with_mpe2() -> None:
     assert r["ratio_vs_mpe2"] > 0 and r["video"]["frames"] > 1
 
 
+@pytest.mark.slow  # the benchmark's own runs of every stack
 def test_stacks_benchmark_runs_every_stack():
     """benchmarks/stacks.py --quick: every row reports a positive rate (no thresholds)."""
     script = Path(__file__).resolve().parents[1] / "benchmarks" / "stacks.py"
@@ -108,6 +109,7 @@ def test_alternating_benchmark_runs_and_reports_both_rates():
     assert len(rates) >= 2 and all(r > 0 for r in rates[-2:]), line
 
 
+@pytest.mark.slow  # the benchmark's own runs of every stack
 def test_torchrl_view_benchmark_reports_both_rates_per_size():
     pytest.importorskip("torchrl")
     script = SCRIPT.parent / "torchrl_view.py"

@@ -60,6 +60,7 @@ def tiny_league(tmp_path_factory):
     return out, doc, seen
 
 
+@pytest.mark.slow  # whole leagues: a minute in all
 def test_a_league_of_both_sides_runs_end_to_end(tiny_league):
     out, doc, seen = tiny_league
     assert json.loads((out / "league.json").read_text()) == json.loads(json.dumps(doc))
@@ -92,6 +93,7 @@ def test_a_league_of_both_sides_runs_end_to_end(tiny_league):
     assert report(rollout(task_params("hunt-v1"), episodes=4, seed=META_SEED), "seed000", "escape")["capture_rate"] == m[0, 0]
 
 
+@pytest.mark.slow  # whole leagues: a minute in all
 def test_a_fine_tuning_league_starts_each_run_from_the_sides_newest_model(tmp_path):
     """--fine-tune: the wolves' runs continue the pack the league started from, then its newest
     best response; the targets' first run (a population of laws) starts from scratch."""
@@ -115,6 +117,7 @@ def test_a_fine_tuning_league_starts_each_run_from_the_sides_newest_model(tmp_pa
     assert model["network"] == yaml.safe_load((Path(start) / "config.yaml").read_text())["network"]
 
 
+@pytest.mark.slow  # whole leagues: a minute in all
 def test_a_stopped_league_resumes_and_ends_as_an_uninterrupted_one(tiny_league, tmp_path):
     out, doc, _ = tiny_league
     # Stopped during the second iteration: its targets' run never started, the final not either.
@@ -157,6 +160,7 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
     assert not out.exists()
 
 
+@pytest.mark.slow  # whole leagues: a minute in all
 def test_a_finished_league_or_another_configuration_is_not_resumed(tiny_league, tmp_path):
     out, _, _ = tiny_league
     base = ["league", "--iterations", "2", "--budget", "8192", "--episodes", "4"]
