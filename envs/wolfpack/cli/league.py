@@ -10,6 +10,7 @@ from typing import Sequence
 
 from wolfpack.cli.args import folder, int_at_least
 from wolfpack.learn.league import league
+from wolfpack.report.psro import markdown
 from wolfpack.task import TASK_ORDER
 
 LEAGUE_DESCRIPTION = """\
@@ -109,27 +110,3 @@ def cmd_league(args: argparse.Namespace, argv: Sequence[str]) -> None:
         return
     print(markdown(doc))
     print(f"wrote {args.out}/league.json; the final policies: {args.out}/final/wolves/wolves and {args.out}/final/targets/targets")
-
-
-def markdown(doc: dict) -> str:
-    """league.json's history as a Markdown table."""
-    lines = [
-        f"# League on `{doc['task']}`: {doc['iterations']} iterations of {doc['budget']:,} agent-steps per side",
-        "",
-        "Exploitability of each side's Nash mixture: the survival of the targets' best response against the wolves' mixture, the capture rate of the wolves' best response against the targets' mixture.",
-        "",
-        "| iteration | members (wolves / targets) | game value (capture) | wolves' exploitability | targets' exploitability | NashConv |",
-        "|---:|---|---:|---:|---:|---:|",
-    ]
-    for r in doc["history"]:
-        ex = r["exploitability"]
-        lines.append(
-            f"| {r['iteration']} | {r['population']['wolves']} / {r['population']['targets']} | {100 * r['value']:.1f} % | {100 * ex['wolves']:.1f} % | {100 * ex['targets']:.1f} % | {r['nash_conv']:.3f} |"
-        )
-    final = doc["final"]
-    lines += ["", f"Final mixtures (game value {100 * final['value']:.1f} %): wolves {_mix(final['mixtures']['wolves'])}; targets {_mix(final['mixtures']['targets'])}.", ""]
-    return "\n".join(lines)
-
-
-def _mix(weights: dict[str, float]) -> str:
-    return ", ".join(f"`{m}` {w:.2f}" for m, w in weights.items())

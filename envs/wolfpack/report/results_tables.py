@@ -18,6 +18,7 @@ from wolfpack.report import benchmark as benchmark_report
 from wolfpack.report import evaluation as evaluation_report
 from wolfpack.report import exploitability as exploitability_report
 from wolfpack.report import league as league_report
+from wolfpack.report import psro as psro_report
 from wolfpack.report import seeds as seeds_report
 from wolfpack.report.documents import Results, bold, change, interval, millions, minutes, percent, row_of
 from wolfpack.sides import SCRIPTED_LAWS
@@ -463,6 +464,35 @@ def generalist_exploitability(results: Results) -> str:
         clone = f"`--imitate-rounds {config['imitate_rounds']}`" if config.get("imitate_rounds") else f"`--imitate {config['imitate_min']:g}`: {rounds} rounds"
         docs[f"seed {seed} ({clone})"] = results.json(f"learned/generalist/{folder.name}/exploit.json")
     return exploitability_report.over_training_seeds(docs)
+
+
+def _tuned_seeds(results: Results) -> list[str]:
+    """The training seeds of the generalist whose pack a fine-tuning league went on from and
+    whose result was measured (``learned/generalist/league-tuned-exploit-seed<S>``)."""
+    found = (results.root / "learned" / "generalist").glob("league-tuned-exploit-seed*")
+    return sorted((p.name.rsplit("seed", 1)[1] for p in found), key=int)
+
+
+@block("fine-tuned-league")
+def fine_tuned_league(results: Results) -> str:
+    """Each fine-tuning league's history (``wolfpack league --fine-tune`` from a generalist seed)."""
+    parts = []
+    for seed in _tuned_seeds(results):
+        doc = results.json(f"learned/generalist/league-tuned-seed{seed}/league.json")
+        parts.append(f"From seed {seed}'s pack, {doc['iterations']} iterations of {doc['budget']:,} agent-steps per side ({doc['wall_s'] / 60:.0f} min):\n\n" + psro_report.history_table(doc))
+    return "\n".join(parts)
+
+
+@block("fine-tuned-exploitability")
+def fine_tuned_exploitability(results: Results) -> str:
+    """The exploitability of each generalist seed's pack before and after its fine-tuning league,
+    measured the same way (fresh escapers from scratch, 5 seeds)."""
+    docs = {}
+    for seed in _tuned_seeds(results):
+        docs[f"seed {seed}: the warm-started generalist"] = results.json(f"learned/generalist/imitation-exploit-seed{seed}/exploit.json")
+        docs[f"seed {seed}: after the fine-tuning league (its final pack)"] = results.json(f"learned/generalist/league-tuned-exploit-seed{seed}/exploit.json")
+    lines, _ = exploitability_report.packs_table(docs)
+    return "\n".join(lines) + "\n"
 
 
 @block("front-page-benchmark")
