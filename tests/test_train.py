@@ -583,3 +583,18 @@ def test_every_training_option_is_a_command_line_option_of_the_same_name():
     assert (args.learners, args.time_limit_min, args.imitate_min, args.imitate_rounds) == ("wolves", 5.0, 2.0, 3)
     with pytest.raises(TypeError, match="timestep"):
         train(out="x", timestep=10)
+
+
+def test_a_leagues_models_are_named_by_the_league_and_the_step():
+    """A league's runs are named after their side (``<league>/iter3/wolves``): its models are
+    labelled with the league and the step, where any other run is labelled by its folder."""
+    from wolfpack.models import native_label
+
+    def label(run: str, learners: str = "wolves") -> str:
+        return native_label(Path("."), {"algo": "mappo", "run": run, "learners": learners, "side": "wolves"})
+
+    assert label("/x/runs/league-a/iter3/wolves") == "mappo:league-a/iter3/wolves"
+    assert label("/x/runs/league-a/final/targets") == "mappo:league-a/final/targets"
+    assert label("/x/runs/wolves") == "mappo:wolves"
+    assert label("/x/runs/pool") == "mappo:pool"
+    assert label("/x/runs/both", "both") == "mappo:both/wolves"

@@ -27,6 +27,7 @@ given observations of another size is a ValueError naming both sizes.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -358,9 +359,13 @@ def _one_line(e: BaseException) -> str:
 
 def native_label(folder: Path, config: dict) -> str:
     """``<algo>:<run>`` (``mappo:wolves``); a both-sides run adds the side (``mappo:both/wolves``),
-    a checkpoint its agent steps (``mappo:wolves@1228800``)."""
+    a checkpoint its agent steps (``mappo:wolves@1228800``). A league's runs, named after their
+    side (``<league>/iter3/wolves``, ``<league>/final/targets``), are named with the league and
+    the step (``mappo:<league>/final/targets``)."""
     run = Path(config.get("run") or folder.parent)
-    label = f"{config['algo']}:{run.name}"
+    league_run = run.name in SIDES and re.fullmatch(r"iter\d+|final", run.parent.name) is not None
+    name = f"{run.parent.parent.name}/{run.parent.name}/{run.name}" if league_run else run.name
+    label = f"{config['algo']}:{name}"
     if config.get("learners") == "both":
         label += f"/{config['side']}"
     if config.get("checkpoint_steps") is not None:

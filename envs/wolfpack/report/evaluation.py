@@ -4,6 +4,7 @@ of a set of pairings, and the cross-play matrix with each policy's worst case.""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 from wolfpack.task import PLAYER_SECTIONS, TASK_ORDER, task_params
@@ -146,9 +147,15 @@ def matrix_plot(doc: dict, path: Path) -> None:
     def shade(value: float) -> str:
         return "white" if value < 60 else "black"
 
-    def wrap(name: str) -> str:
-        """A long model name on two lines (``ppo:league/`` + ``targets_g05``)."""
-        return name.replace("/", "/\n", 1) if len(name) > 14 else name
+    def wrap(name: str, width: int = 15) -> str:
+        """A long model name on lines of about ``width`` characters, broken after a ``/``, ``:``
+        or ``-`` (``ppo:league/`` + ``targets_g05``), so that a cell's text stays in its cell."""
+        lines = [""]
+        for part in re.findall(r"[^/:-]+[/:-]?|[/:-]", name):
+            if lines[-1] and len(lines[-1]) + len(part) > width:
+                lines.append("")
+            lines[-1] += part
+        return "\n".join(lines)
 
     im = ax.imshow(grid, cmap="viridis", vmin=0, vmax=100, aspect="auto")
     for i, w in enumerate(wolves):
