@@ -110,3 +110,24 @@ def test_a_folder_with_progress_or_foreign_files_is_never_reused(tmp_path):
     with pytest.raises(ValueError, match="not a new or empty folder"):
         tiny(mine)
     assert (mine / "notes.txt").read_text() == "mine"
+
+
+def test_a_ctrl_c_in_the_middle_of_writing_the_configuration_leaves_none(tmp_path, monkeypatch):
+    """config.yaml is written whole or not at all: a Ctrl-C landing half way through the write
+    leaves no configuration that a rerun or --resume could not read."""
+    out = tmp_path / "run"
+    real = Path.write_text
+
+    def half_then_ctrl_c(self, data, *args, **kwargs):
+        if "config.yaml" in self.name:
+            real(self, data[: len(data) // 2], *args, **kwargs)
+            raise KeyboardInterrupt
+        return real(self, data, *args, **kwargs)
+
+    with monkeypatch.context() as patched:
+        patched.setattr(Path, "write_text", half_then_ctrl_c)
+        with pytest.raises(KeyboardInterrupt, match="holds no progress yet"):
+            tiny(out)
+    assert not (out / "config.yaml").exists() and not list(out.glob(".config.yaml*"))
+    assert tiny(out)["agent_steps"] >= 600  # the same command starts afresh there
+    assert tiny(out, resume=True, timesteps=1200)["agent_steps"] >= 1200  # and goes on from it

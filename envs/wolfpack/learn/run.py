@@ -17,6 +17,7 @@ from wolfpack.evaluation import TRAIN_SEED_BASE
 from wolfpack.interrupt import Interrupted
 from wolfpack.learn.recipes import ALGOS, LEARNERS, check_memory, recipe, recipes_params_overrides, rollout_bytes
 from wolfpack.learn.tasks import TASK_WEIGHTS, task_list, world_groups
+from wolfpack.logs import atomic_path
 from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy, native_model_folders, read_config
 from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES
 
@@ -369,7 +370,10 @@ def run_training(options: TrainOptions) -> dict:
                 "torch_threads": spec.torch_threads,
                 "versions": versions(),
             }
-            (out / CONFIG_FILE).write_text(yaml.safe_dump(plain(config), sort_keys=False))
+            # Whole or not at all: a Ctrl-C landing in the write must not leave a configuration
+            # that a rerun or --resume cannot read.
+            with atomic_path(out / CONFIG_FILE) as tmp:
+                tmp.write_text(yaml.safe_dump(plain(config), sort_keys=False))
         return trainer.run()
     except KeyboardInterrupt:
         # The exit-status table promises one line saying what --out holds.
