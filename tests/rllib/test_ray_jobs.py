@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -23,6 +24,7 @@ pytest.importorskip("torch")
 from wolfpack.learn.exploit import exploitability  # noqa: E402
 from wolfpack.learn.league import league  # noqa: E402
 
+REPO = Path(__file__).resolve().parents[2]
 #: Two best responses of one update each (the targets' recipe: 8,192 agent-steps an update).
 TINY = dict(budgets=[8_192], seeds=2, episodes=4)
 
@@ -44,8 +46,11 @@ def test_two_ray_workers_give_the_exploitability_of_one_machine(tmp_path):
         assert (tmp_path / "ray" / row["model"] / "policy.pt").is_file()
 
 
-def test_a_league_on_ray_is_the_league_of_one_machine(tmp_path):
-    tiny = dict(iterations=1, budget=8_192, episodes=4)
+def test_a_league_on_ray_is_the_league_of_one_machine(tmp_path, monkeypatch):
+    """A fine-tuning league from a committed pack named by a relative path: the Ray workers run
+    where the job was started, so the paths its options name are found."""
+    monkeypatch.chdir(REPO)
+    tiny = dict(iterations=1, budget=8_192, episodes=4, wolves=["results/learned/wolves_mappo/native_wolves_mappo_s0/wolves"], fine_tune=True)
     here = league(tmp_path / "here", jobs=2, **tiny)
     on_ray = league(tmp_path / "ray", jobs=2, cluster="local", **tiny)
     assert without_times(on_ray) == without_times(here)

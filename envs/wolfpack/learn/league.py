@@ -162,10 +162,10 @@ def league(
     value, each mixture's exploitability and NashConv, the best responses' models and training
     times), ``final`` (the final mixtures and the final policy of each side), the payoff matrix
     and ``wall_s``. ``jobs`` = 2 trains both sides' runs of a step at once, on half the cores
-    each (here, or on Ray: ``cluster``, see :func:`wolfpack.learn.runs.train_all`); ``fine_tune``: each run of a side starts from the side's newest saved model of
-    ``wolfpack train`` (``--init``: a pack improved against the best responses it met, rather
-    than a new one from scratch every iteration); ``progress`` is called with each iteration's
-    record."""
+    each (here, or on Ray: ``cluster``, see :func:`wolfpack.learn.runs.train_all`);
+    ``fine_tune``: each run of a side starts from the side's newest saved model of ``wolfpack
+    train`` (``--init``: a pack improved against the best responses it met, rather than a new
+    one from scratch every iteration); ``progress`` is called with each iteration's record."""
     out = Path(out).resolve()  # the members' paths: the same from any working folder
     the_plan = plan(iterations, budget, task, episodes, seed, wolves, targets, fine_tune)
     if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs not in (1, 2):

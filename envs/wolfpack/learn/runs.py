@@ -11,7 +11,8 @@ The runs of a step are independent, and :func:`train_all` trains them where the 
 here, several at once in child processes (the default), or as tasks of Ray (``cluster``), the
 distributed engine the RLlib path already uses: a Ray started on this machine for the job
 (``"local"``), or a running cluster (``"auto"`` or its address) whose nodes see the job's
-folder at the same path (a shared file system) and have wolfpack installed. Where a run trains
+folder, and the working folder the job was started from, at the same paths (a shared file
+system) and have wolfpack installed. Where a run trains
 does not change what it learns: a run is bit-identical given its seed and its thread counts
 (docs/interface.md, "wolfpack train"), and each run gets this machine's cores / ``jobs``
 wherever it trains.
@@ -20,6 +21,7 @@ wherever it trains.
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -80,9 +82,10 @@ def prepare(out: Path, plan: dict, resume: bool, result_file: str, what: str) ->
     write_json_atomic(plan_path, plan)
 
 
-def train(folder: Path, options: Sequence[str], log: Path) -> dict:
+def train(folder: Path, options: Sequence[str], log: Path, cwd: str | None = None) -> dict:
     """The summary of the ``wolfpack train OPTIONS --out folder`` run: read back when finished,
-    else trained (or continued) now in a child process whose output goes to ``log``.
+    else trained (or continued) now in a child process whose output goes to ``log``, started in
+    ``cwd`` (default: this process's working folder; the options' paths are relative to it).
     KeyboardInterrupt when the child was interrupted; RuntimeError naming the log when it
     failed."""
     summary_path = folder / "summary.json"
@@ -94,7 +97,7 @@ def train(folder: Path, options: Sequence[str], log: Path) -> dict:
         log.parent.mkdir(parents=True, exist_ok=True)
         cmd = [sys.executable, "-m", "wolfpack", "train", *options, "--no-progress", "--out", str(folder), *(["--resume"] if resumable else [])]
         with log.open("a", encoding="utf-8") as f:
-            code = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL).returncode
+            code = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, cwd=cwd).returncode
         if code == 130:
             raise KeyboardInterrupt
         if code != 0 or not summary_path.is_file():
@@ -165,7 +168,10 @@ def _train_on_ray(runs: Sequence[TrainRun], jobs: int, cluster: str, finished: C
             ray.init(address=cluster, log_to_driver=False, configure_logging=False)
     try:
         task = ray.remote(num_cpus=threads_per_run(jobs), max_retries=0)(train)
-        pending = {task.remote(run.folder.resolve(), list(run.options), run.log.resolve()): k for k, run in enumerate(runs)}
+        # A worker starts in a folder of Ray's: the run starts where this process works, so that
+        # the paths the options name (a model to play against or start from) are found.
+        here = os.getcwd()
+        pending = {task.remote(run.folder.resolve(), list(run.options), run.log.resolve(), here): k for k, run in enumerate(runs)}
         try:
             while pending:
                 ready, _ = ray.wait(list(pending), num_returns=1)
