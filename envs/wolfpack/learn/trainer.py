@@ -243,7 +243,8 @@ class Trainer:
             model = load_policy(folder, side)
             theirs, mine = dict(model.config["network"]), dict(self.learners[side].network)
             if mine.get("kind") == "entities":
-                theirs.pop("obs_dim", None), mine.pop("obs_dim", None)
+                for network in (theirs, mine):
+                    network.pop("obs_dim", None)
             differ = sorted(k for k in set(theirs) | set(mine) if theirs.get(k) != mine.get(k))
             if differ:
                 shown = "; ".join(f"{k}: {theirs.get(k)!r} there, {mine.get(k)!r} here" for k in differ)
