@@ -479,7 +479,11 @@ def fine_tuned_league(results: Results) -> str:
     parts = []
     for seed in _tuned_seeds(results):
         doc = results.json(f"learned/generalist/league-tuned-seed{seed}/league.json")
-        parts.append(f"From seed {seed}'s pack, {doc['iterations']} iterations of {doc['budget']:,} agent-steps per side ({doc['wall_s'] / 60:.0f} min):\n\n" + psro_report.history_table(doc))
+        targets = ", ".join(f"`{t}`" for t in doc["targets"])
+        parts.append(
+            f"From seed {seed}'s pack, the targets' population starting with {targets}; {doc['iterations']} iterations of {doc['budget']:,} agent-steps per side ({doc['wall_s'] / 60:.0f} min):\n\n"
+            + psro_report.history_table(doc)
+        )
     return "\n".join(parts)
 
 
