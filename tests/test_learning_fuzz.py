@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import os
 import shutil
 import signal
 import subprocess
@@ -187,7 +188,9 @@ DELAYS = [0.0, *np.round(np.random.default_rng(0).uniform(0.05, 3.0, size=2), 2)
 @pytest.mark.parametrize("delay", DELAYS)
 def test_training_interrupted_anywhere_leaves_a_folder_a_rerun_reuses_or_resume_continues(tmp_path, delay):
     out = tmp_path / "run"
-    proc = popen_interruptible([sys.executable, "-m", "wolfpack", *TRAIN_ARGS, "--timesteps", "20000", "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    # PYTHONFAULTHANDLER: a child that hangs is sent SIGABRT below and prints every thread's stack.
+    env = {**os.environ, "PYTHONFAULTHANDLER": "1"}
+    proc = popen_interruptible([sys.executable, "-m", "wolfpack", *TRAIN_ARGS, "--timesteps", "20000", "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env)
     try:
         deadline = time.monotonic() + 60
         while not (out / "config.yaml").is_file():
@@ -196,7 +199,12 @@ def test_training_interrupted_anywhere_leaves_a_folder_a_rerun_reuses_or_resume_
             time.sleep(0.005)
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=60)
+        try:
+            stdout, stderr = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGABRT)
+            stdout, stderr = proc.communicate(timeout=30)
+            pytest.fail(f"Ctrl-C {delay} s after config.yaml: still running 60 s later; its threads' stacks:\n{stderr[-8000:]}")
     finally:
         if proc.poll() is None:
             proc.kill()
