@@ -8,7 +8,6 @@ sized), then measured once per round. Also the standalone measurements and helpe
 from __future__ import annotations
 
 import json
-import math
 import os
 import statistics
 import subprocess
@@ -17,6 +16,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
+from calibration import calibrate
 from machine import usable_cores
 from peer_scenarios import COUNTS, vmas_simple_tag
 
@@ -39,20 +39,6 @@ def note(msg: str) -> None:
 
 def median_rate(runs: list[tuple[int, float]]) -> float:
     return statistics.median(steps / secs for steps, secs in runs)
-
-
-def calibrate(run: Callable[[int], tuple[int, float]], target_s: float, min_steps: int = 1, max_steps: int = 10_000_000) -> int:
-    """After one warm-up step, times runs of 1, 4, 16, ... steps until one takes ≥ target_s / 4
-    (they warm up too), then returns the step count for about ``target_s`` seconds. (The same rule as
-    peer_worker.calibrate.)"""
-    run(1)  # a first step can be slow (allocation, caches): warm up before timing anything
-    n = 1
-    while True:
-        _, secs = run(n)
-        if secs >= target_s / 4 or n >= max_steps:
-            break
-        n = min(max_steps, n * 4 if secs < target_s / 40 else max(n + 1, math.ceil(n * target_s / 4 / max(secs, 1e-9))))
-    return int(max(min_steps, min(max_steps, round(target_s * n / max(secs, 1e-9)))))
 
 
 def import_wolfpack():

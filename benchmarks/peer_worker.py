@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import time
@@ -56,22 +55,10 @@ os.dup2(2, 1)
 sys.stdout = sys.stderr
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
-from peer_scenarios import COUNTS, vmas_simple_tag  # noqa: E402 (after the stdout redirect)
+from calibration import calibrate  # noqa: E402 (after the stdout redirect)
+from peer_scenarios import COUNTS, vmas_simple_tag  # noqa: E402
 
 POOL = 16  # pre-drawn action batches, cycled through
-
-
-def calibrate(run, target_s: float, min_steps: int = 1, max_steps: int = 10_000_000) -> int:
-    """After one warm-up step, times runs of 1, 4, 16, ... steps until one takes ≥ target_s / 4
-    (they warm up too), then returns the step count for about ``target_s`` seconds."""
-    run(1)  # a first step can be slow (allocation, caches): warm up before timing anything
-    n = 1
-    while True:
-        _, secs = run(n)
-        if secs >= target_s / 4 or n >= max_steps:
-            break
-        n = min(max_steps, n * 4 if secs < target_s / 40 else max(n + 1, math.ceil(n * target_s / 4 / max(secs, 1e-9))))
-    return int(max(min_steps, min(max_steps, round(target_s * n / max(secs, 1e-9)))))
 
 
 # ---------------------------------------------------------------------------------------------
