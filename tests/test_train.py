@@ -352,11 +352,19 @@ def test_imitation_in_rounds_is_the_same_clone_however_busy_the_machine(tmp_path
     assert not (tmp_path / "c").exists()
 
 
-def test_a_run_starts_from_a_saved_model_with_its_recipe_and_a_critic_that_learns_first(tmp_path):
+def test_a_run_starts_from_a_saved_model_with_its_recipe_and_a_critic_that_learns_first(tmp_path, monkeypatch):
     """--init: the learner starts with the model's actor and recipe; for the first updates only
     the critic learns, so after one update the actor's weights are still the model's (its
-    observation normaliser goes on counting); later updates move it."""
+    observation normaliser goes on counting); later updates move it. The model is loaded once:
+    the trainer takes the one that the run's checks loaded."""
     import yaml
+
+    import wolfpack.learn.trainer
+
+    def second_load(*args, **kwargs):
+        raise AssertionError("the trainer loaded the --init model a second time")
+
+    monkeypatch.setattr(wolfpack.learn.trainer, "load_policy", second_load)
 
     tiny_train(tmp_path / "a", algo="ippo", timesteps=1_000, hp={**TINY, "hidden": [24, 24], "learning_rate": 1e-3})
     model = torch.load(tmp_path / "a" / "wolves" / "policy.pt", weights_only=True)

@@ -348,7 +348,7 @@ def run_training(options: TrainOptions) -> dict:
     torch.set_num_threads(spec.torch_threads)
     # Building the trainer builds the batch and loads the opponent: a model of the wrong side or
     # observation size fails here, before anything is written.
-    trainer = Trainer(spec, out, resume=resume, progress=o.progress)
+    trainer = Trainer(spec, out, resume=resume, progress=o.progress, init_models=init)
     # From here on a Ctrl-C, wherever it lands (the configuration half written, the trainer
     # opening its logs), ends with the one line that says what --out holds.
     try:

@@ -28,9 +28,8 @@ import csv
 import json
 import math
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import torch
@@ -42,68 +41,11 @@ from wolfpack.learn.checkpoints import TRAINER_FILE, latest_resume_state, plain,
 from wolfpack.learn.held_out import HeldOut
 from wolfpack.learn.ppo import SideLearner
 from wolfpack.learn.progress import BASE_COLUMNS, EVAL_COLUMNS, SIDE_COLUMNS, cell, postfix, progress_bar, tensorboard
+from wolfpack.learn.spec import TrainSpec
 from wolfpack.models import CONFIG_FILE, POLICY_FILE, load_policy
 from wolfpack.opponents import Opponent, as_opponent, opponent_side
-from wolfpack.sides import SIDES
 
 CAPTURED, COLLISION, TIMEOUT, CORNERED = (OUTCOMES.index(k) for k in ("captured", "collision", "timeout", "cornered"))
-
-
-@dataclass
-class TrainSpec:
-    """What a run trains: ``learners`` (``wolves``, ``targets`` or ``both``), ``algo``
-    (``ippo`` or ``mappo``), the validated ``params``, each learning side's ``recipes``, the
-    ``opponent`` of a one-sided run (None: the params' law; it is what the held-out evaluations
-    play), the ``opponent_pool`` (more than one: the other side's drivers, one drawn uniformly
-    for each rollout; ``opponent`` is its first), and how it runs."""
-
-    learners: str
-    algo: str
-    params: dict
-    recipes: dict[str, dict]
-    seed: int = 0
-    opponent: str | None = None
-    opponent_pool: tuple[str, ...] = ()
-    timesteps: int | None = None
-    time_limit_min: float | None = None
-    threads: int | None = None
-    torch_threads: int | None = None
-    device: str = "cpu"
-    eval_episodes: int = 100
-    evaluations: int = 10
-    imitate_min: float | None = None
-    imitate_rounds: int | None = None
-    command: str = ""
-    extra: dict = field(default_factory=dict)
-    #: Multi-task training: the groups of worlds the batch is split into, ``(label, task,
-    #: params)`` each (one per task, or per task and ``--vary`` draw); a batch holds worlds of
-    #: one params, so each group is a batch of its own, stepped in turn. Empty: one group of
-    #: ``params``.
-    groups: tuple[tuple[str, str, dict], ...] = ()
-    #: The tasks of the held-out evaluations, ``(task, params)`` each; empty: ``params``.
-    eval_tasks: tuple[tuple[str, dict], ...] = ()
-    #: How the groups weigh in the update, one of :data:`wolfpack.learn.tasks.TASK_WEIGHTS`.
-    task_weights: str = "uniform"
-    #: ``{side: model folder}``: the saved models whose actors the learning sides start from
-    #: (``--init``); the critics start afresh and learn alone for the first updates.
-    init: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def sides(self) -> tuple[str, ...]:
-        return SIDES if self.learners == "both" else (self.learners,)
-
-    def identity(self) -> dict:
-        """What must match for ``--resume`` to continue a run: the sides, algorithm, opponent,
-        params, recipes and seed (and the opponent pool, when there is one)."""
-        identity = {"learners": self.learners, "algo": self.algo, "opponent": self.opponent, "params": self.params, "recipes": self.recipes, "seed": self.seed}
-        if len(self.opponent_pool) > 1:
-            identity["opponent_pool"] = list(self.opponent_pool)
-        if self.groups:
-            identity["groups"] = [{"label": label, "task": task, "params": params} for label, task, params in self.groups]
-            identity["task_weights"] = self.task_weights
-        if self.init:
-            identity["init"] = dict(self.init)
-        return identity
 
 
 class Trainer:
@@ -118,7 +60,16 @@ class Trainer:
     from a generator seeded by the run's seed and the update's number (a resumed run draws as
     the uninterrupted one would)."""
 
-    def __init__(self, spec: TrainSpec, out: Path, *, resume: bool = False, progress: bool = True, opponents: Callable[[], Any] | None = None) -> None:
+    def __init__(
+        self,
+        spec: TrainSpec,
+        out: Path,
+        *,
+        resume: bool = False,
+        progress: bool = True,
+        opponents: Callable[[], Any] | None = None,
+        init_models: Mapping[str, Any] | None = None,
+    ) -> None:
         self.spec, self.out, self.progress = spec, Path(out), progress
         self.device = torch.device(spec.device)
         wolves_recipe = spec.recipes[spec.sides[0]]
@@ -190,7 +141,7 @@ class Trainer:
                 side_by_side=side_by_side,
             )
         if state is None:
-            self._start_from_models()
+            self._start_from_models(init_models or {})
         else:
             try:
                 self._restore(state)
@@ -235,12 +186,14 @@ class Trainer:
             except (KeyError, RuntimeError, ValueError) as e:
                 raise ValueError(f"cannot start the {side} from that learner: another network or observation size ({type(e).__name__}: {str(e).splitlines()[0]})") from None
 
-    def _start_from_models(self) -> None:
+    def _start_from_models(self, loaded: Mapping[str, Any]) -> None:
         """Each side of ``spec.init`` starts with that saved model's actor (its weights, its
-        action spread and its observation normaliser). The model must have this run's network;
-        with entity observations the number of rows may differ (the set network reads any)."""
+        action spread and its observation normaliser): ``loaded[side]`` where the caller has
+        loaded it already (``run_training`` checks the models before anything is written),
+        loaded here otherwise. The model must have this run's network; with entity observations
+        the number of rows may differ (the set network reads any)."""
         for side, folder in self.spec.init.items():
-            model = load_policy(folder, side)
+            model = loaded[side] if side in loaded else load_policy(folder, side)
             theirs, mine = dict(model.config["network"]), dict(self.learners[side].network)
             if mine.get("kind") == "entities":
                 for network in (theirs, mine):
