@@ -11,32 +11,19 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Callable
 
 from wolfpack.learn.matches import opponents_of
 from wolfpack.report import benchmark as benchmark_report
 from wolfpack.report import evaluation as evaluation_report
 from wolfpack.report import exploitability as exploitability_report
+from wolfpack.report import generalist_tables  # noqa: F401  (registers the generalist's blocks)
 from wolfpack.report import league as league_report
-from wolfpack.report import psro as psro_report
 from wolfpack.report import seeds as seeds_report
+from wolfpack.report.blocks import BLOCKS as BLOCKS  # every block, the generalist's included
+from wolfpack.report.blocks import block
 from wolfpack.report.documents import Results, bold, change, interval, millions, minutes, percent, row_of
 from wolfpack.sides import SCRIPTED_LAWS
 from wolfpack.stats import iqm_cell, range_cell
-
-#: NAME → the function that renders block NAME from the results.
-BLOCKS: dict[str, Callable[[Results], str]] = {}
-
-
-def block(name: str):
-    """Registers a table function under the marker name RESULTS.md uses for it."""
-
-    def register(render: Callable[[Results], str]) -> Callable[[Results], str]:
-        BLOCKS[name] = render
-        return render
-
-    return register
-
 
 # --- the tables ----------------------------------------------------------------------------------
 
@@ -450,53 +437,6 @@ def benchmark(results: Results) -> str:
 def exploitability_table(results: Results) -> str:
     """Best-response escapers against each law and the best learned wolves, as exploitability.py writes it."""
     return exploitability_report.table(results.json("benchmark/exploitability/exploitability.json"))
-
-
-@block("generalist-exploitability")
-def generalist_exploitability(results: Results) -> str:
-    """The warm-started generalist's exploitability on hunt-v1, per training seed measured
-    (``learned/generalist/imitation-exploit-seed<S>/exploit.json``) and over them."""
-    docs = {}
-    for folder in sorted((results.root / "learned" / "generalist").glob("imitation-exploit-seed*"), key=lambda p: int(p.name.rsplit("seed", 1)[1])):
-        seed = folder.name.rsplit("seed", 1)[1]
-        config = results.yaml(f"learned/generalist/imitation-seed{seed}/config.yaml")
-        rounds = len(results.json(f"learned/generalist/imitation-seed{seed}/imitation.json"))
-        clone = f"`--imitate-rounds {config['imitate_rounds']}`" if config.get("imitate_rounds") else f"`--imitate {config['imitate_min']:g}`: {rounds} rounds"
-        docs[f"seed {seed} ({clone})"] = results.json(f"learned/generalist/{folder.name}/exploit.json")
-    return exploitability_report.over_training_seeds(docs)
-
-
-def _tuned_seeds(results: Results) -> list[str]:
-    """The training seeds of the generalist whose pack a fine-tuning league went on from and
-    whose result was measured (``learned/generalist/league-tuned-exploit-seed<S>``)."""
-    found = (results.root / "learned" / "generalist").glob("league-tuned-exploit-seed*")
-    return sorted((p.name.rsplit("seed", 1)[1] for p in found), key=int)
-
-
-@block("fine-tuned-league")
-def fine_tuned_league(results: Results) -> str:
-    """Each fine-tuning league's history (``wolfpack league --fine-tune`` from a generalist seed)."""
-    parts = []
-    for seed in _tuned_seeds(results):
-        doc = results.json(f"learned/generalist/league-tuned-seed{seed}/league.json")
-        targets = ", ".join(f"`{t}`" for t in doc["targets"])
-        parts.append(
-            f"From seed {seed}'s pack, the targets' population starting with {targets}; {doc['iterations']} iterations of {doc['budget']:,} agent-steps per side ({doc['wall_s'] / 60:.0f} min):\n\n"
-            + psro_report.history_table(doc)
-        )
-    return "\n".join(parts)
-
-
-@block("fine-tuned-exploitability")
-def fine_tuned_exploitability(results: Results) -> str:
-    """The exploitability of each generalist seed's pack before and after its fine-tuning league,
-    measured the same way (fresh escapers from scratch, 5 seeds)."""
-    docs = {}
-    for seed in _tuned_seeds(results):
-        docs[f"seed {seed}: the warm-started generalist"] = results.json(f"learned/generalist/imitation-exploit-seed{seed}/exploit.json")
-        docs[f"seed {seed}: after the fine-tuning league (its final pack)"] = results.json(f"learned/generalist/league-tuned-exploit-seed{seed}/exploit.json")
-    lines, _ = exploitability_report.packs_table(docs)
-    return "\n".join(lines) + "\n"
 
 
 @block("front-page-benchmark")
