@@ -15,8 +15,8 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("scipy")
 
-from wolfpack.learn.league import META_SEED, league, pool  # noqa: E402
-from wolfpack.learn.meta import nash  # noqa: E402
+from wolfpack.learn.league import META_SEED, LeagueError, league, pool  # noqa: E402
+from wolfpack.learn.meta import mixtures, nash  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Two iterations of one update per run (the targets' recipe: 8,192 agent-steps an update; the
@@ -44,6 +44,21 @@ def test_the_meta_solver_solves_known_games():
     assert value == pytest.approx(0.5)
     with pytest.raises(ValueError, match="finite, non-empty"):
         nash(np.array([[np.nan]]))
+
+
+def test_the_uniform_meta_solver_weighs_every_member_alike(tmp_path):
+    m = np.array([[0.9, 0.8], [0.2, 0.1], [0.5, 0.5]])
+    x, y, value = mixtures(m, "uniform")
+    np.testing.assert_allclose(x, [1 / 3] * 3)
+    np.testing.assert_allclose(y, [0.5, 0.5])
+    assert value == pytest.approx(m.mean())
+    x, y, value = mixtures(m, "nash")
+    assert x.tolist() == [1.0, 0.0, 0.0] and value == pytest.approx(0.8)
+    with pytest.raises(ValueError, match="meta-solver 'pfsp': one of nash, uniform"):
+        mixtures(m, "pfsp")
+    with pytest.raises(LeagueError, match="--meta-solver 'pfsp'"):
+        league(tmp_path / "out", meta_solver="pfsp")
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_mixture_becomes_the_trainers_pool_in_twentieths():
@@ -76,6 +91,7 @@ def test_a_league_of_both_sides_runs_end_to_end(tiny_league):
         assert sum(record["mixtures"]["wolves"].values()) == pytest.approx(1.0)
         ex, br, value = record["exploitability"], record["best_response_rates"], record["value"]
         assert ex == {"wolves": pytest.approx(1 - min(br["targets"], value)), "targets": pytest.approx(max(br["wolves"], value))}
+        assert record["nash_conv"] == pytest.approx(ex["targets"] - (1 - ex["wolves"]))
         for side in ("wolves", "targets"):
             run = out / Path(record["best_responses"][side]["model"]).parent
             config = (run / "config.yaml").read_text()
@@ -151,6 +167,7 @@ def test_a_stopped_league_resumes_and_ends_as_an_uninterrupted_one(tiny_league, 
         (["--wolves", "escape"], "--wolves escape: it plays the targets, not the wolves"),
         (["--targets", str(ROOT / "results" / "learned" / "wolves_mappo" / "native_wolves_mappo_s0")], "it plays the wolves, not the targets"),
         (["--wolves", "nosuch"], "--wolves nosuch: opponent 'nosuch': not a scripted law"),
+        (["--meta-solver", "pfsp"], "--meta-solver: invalid choice: 'pfsp' (choose from 'nash', 'uniform')"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):

@@ -10,6 +10,7 @@ from typing import Sequence
 
 from wolfpack.cli.args import folder, int_at_least
 from wolfpack.learn.league import league
+from wolfpack.learn.meta import META_SOLVERS
 from wolfpack.report.psro import markdown
 from wolfpack.task import TASK_ORDER
 
@@ -25,7 +26,8 @@ response achieves against it. After the last iteration one final policy per side
 against the other side's final mixture: the league's product.
 
 The populations start from --wolves / --targets (laws or saved models; default: each side's law
-of the task). --jobs 2 trains both sides' runs of a step at once, on half the cores each.
+of the task). --meta-solver uniform weighs every member alike instead (fictitious play: what the
+Nash mixture is measured against). --jobs 2 trains both sides' runs of a step at once, on half the cores each.
 
 Writes into --out DIR (a new or empty folder): plan.json first; iter<k>/<side>/ and final/<side>/
 (each a 'wolfpack train' run folder; the model is its <side>/ folder: final/wolves/wolves is the
@@ -74,6 +76,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
         action="store_true",
         help="each run of a side starts from the side's newest saved model (wolfpack train --init) instead of from scratch: e.g. --wolves <a trained pack> --fine-tune improves that pack against every best response",
     )
+    p.add_argument(
+        "--meta-solver",
+        choices=META_SOLVERS,
+        default="nash",
+        help="the mixture each best response trains against: nash (the minimax mixture of the empirical game) or uniform (every member alike: fictitious play) (default nash)",
+    )
     p.add_argument("--resume", action="store_true", help="continue the unfinished league in --out")
     p.add_argument("--json", action="store_true", help="print league.json on stdout instead of the table")
     p.set_defaults(func=cmd_league)
@@ -102,6 +110,7 @@ def cmd_league(args: argparse.Namespace, argv: Sequence[str]) -> None:
             jobs=args.jobs,
             cluster=args.cluster,
             fine_tune=args.fine_tune,
+            meta_solver=args.meta_solver,
             resume=args.resume,
             progress=done,
         )

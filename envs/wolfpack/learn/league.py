@@ -1,5 +1,5 @@
 """Population training of both sides (``wolfpack league``): policy-space response oracles (PSRO)
-with a Nash meta-solver.
+with a Nash meta-solver (or, to measure that choice against, a uniform one: fictitious play).
 
 Each side has a population, started from laws or models (by default each side's law of the
 task). An iteration:
@@ -7,16 +7,17 @@ task). An iteration:
 1. plays every wolf member against every target member on the meta-game's episodes (seeds
    :data:`META_SEED` + k: neither the training worlds nor the held-out episodes), the capture
    rate being the payoff, cached pair by pair;
-2. solves the empirical game for each side's Nash mixture (:func:`wolfpack.learn.meta.nash`);
+2. solves the empirical game for each side's Nash mixture (:func:`wolfpack.learn.meta.nash`;
+   with ``meta_solver="uniform"`` each population's members weigh alike);
 3. trains a best response of each side against the other side's mixture (``wolfpack train
    --opponent A --opponent A --opponent B …``: the trainer's pool draws one member per rollout,
    so a member's copies stand for its weight, in twentieths): from scratch, or with
    ``fine_tune`` from the side's newest saved model (``--init``);
 4. adds both to the populations and logs each mixture's exploitability: what the best
-   response the league has achieves against it — the new one, or the population's best member,
-   which gets the game's value against a Nash mixture (the targets' survival against the
-   wolves' mixture, the wolves' capture rate against the targets' mixture) — and how far both
-   go beyond the game's value (NashConv).
+   response the league has achieves against it — the new one, or the population's best member
+   (which gets the game's value against a Nash mixture) — the targets' survival against the
+   wolves' mixture, the wolves' capture rate against the targets' mixture, and how far both
+   go beyond the mixtures' payoff against each other (NashConv).
 
 After the last iteration one final policy per side is trained against the other side's final
 mixture: the product, because users play one policy, not a mixture.
@@ -38,7 +39,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from wolfpack.evaluation import report, rollout
-from wolfpack.learn.meta import nash
+from wolfpack.learn.meta import META_SOLVERS, mixtures
 from wolfpack.learn.runs import RunError, TrainRun, check_cluster, check_player, prepare, threads_per_run, train_all
 from wolfpack.logs import write_json_atomic
 from wolfpack.models import load_policy, native_model_folders
@@ -60,7 +61,17 @@ class LeagueError(RunError):
     """Bad input to a league, said in one line."""
 
 
-def plan(iterations: int, budget: int, task: str, episodes: int, seed: int, wolves: Sequence[str] | None, targets: Sequence[str] | None, fine_tune: bool = False) -> dict:
+def plan(
+    iterations: int,
+    budget: int,
+    task: str,
+    episodes: int,
+    seed: int,
+    wolves: Sequence[str] | None,
+    targets: Sequence[str] | None,
+    fine_tune: bool = False,
+    meta_solver: str = "nash",
+) -> dict:
     """What a league is: what must match for ``resume`` to continue one."""
     for name, value, low in (("--iterations", iterations, 1), ("--budget", budget, 1), ("--episodes", episodes, 1), ("--seed", seed, 0)):
         if not isinstance(value, int) or isinstance(value, bool) or value < low:
@@ -75,7 +86,9 @@ def plan(iterations: int, budget: int, task: str, episodes: int, seed: int, wolv
             check_player(member, side, LeagueError)
     if not isinstance(fine_tune, bool):
         raise LeagueError(f"fine_tune {fine_tune!r}: True or False")
-    doc = {"iterations": iterations, "budget": budget, "task": task, "episodes": episodes, "seed": seed, "meta_solver": "nash", "meta_seed": META_SEED, **start}
+    if meta_solver not in META_SOLVERS:
+        raise LeagueError(f"--meta-solver {meta_solver!r}: one of {', '.join(META_SOLVERS)}")
+    doc = {"iterations": iterations, "budget": budget, "task": task, "episodes": episodes, "seed": seed, "meta_solver": meta_solver, "meta_seed": META_SEED, **start}
     if fine_tune:  # only when asked: the plan of a league from scratch reads as it always did
         doc["fine_tune"] = True
     return doc
@@ -154,6 +167,7 @@ def league(
     jobs: int = 1,
     cluster: str | None = None,
     fine_tune: bool = False,
+    meta_solver: str = "nash",
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
 ) -> dict:
@@ -165,9 +179,11 @@ def league(
     each (here, or on Ray: ``cluster``, see :func:`wolfpack.learn.runs.train_all`);
     ``fine_tune``: each run of a side starts from the side's newest saved model of ``wolfpack
     train`` (``--init``: a pack improved against the best responses it met, rather than a new
-    one from scratch every iteration); ``progress`` is called with each iteration's record."""
+    one from scratch every iteration); ``meta_solver``: ``nash`` or ``uniform``
+    (:data:`~wolfpack.learn.meta.META_SOLVERS`); ``progress`` is called with each iteration's
+    record."""
     out = Path(out).resolve()  # the members' paths: the same from any working folder
-    the_plan = plan(iterations, budget, task, episodes, seed, wolves, targets, fine_tune)
+    the_plan = plan(iterations, budget, task, episodes, seed, wolves, targets, fine_tune, meta_solver)
     if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs not in (1, 2):
         raise LeagueError(f"--jobs {jobs}: 1 or 2 (the two sides' runs of a step)")
     check_cluster(cluster, LeagueError)
@@ -192,25 +208,29 @@ def league(
 
     for it in range(1, iterations + 1):
         m = payoffs.matrix(pops["wolves"], pops["targets"])
-        x, y, value = nash(m)
+        x, y, value = mixtures(m, meta_solver)
         folder = out / f"iter{it}"
         summaries = train_both(folder, {"wolves": pool(pops["targets"], y), "targets": pool(pops["wolves"], x)}, seed * 1000 + it)
         new = {side: str(folder / side / side) for side in SIDES}
         # What each new best response achieves against the mixture it was trained against.
         wolves_br = float(sum(y[j] * payoffs.rate(new["wolves"], t) for j, t in enumerate(pops["targets"])))
         targets_br = float(sum(x[i] * payoffs.rate(w, new["targets"]) for i, w in enumerate(pops["wolves"])))
+        best_wolves = max(wolves_br, float((m @ y).max()))  # the best capture rate against y
+        best_targets = min(targets_br, float((x @ m).min()))  # the best survival against x, as 1 - capture
         record = {
             "iteration": it,
             "population": {side: len(pops[side]) for side in SIDES},
             "mixtures": {"wolves": _weights(out, pops["wolves"], x), "targets": _weights(out, pops["targets"], y)},
             "value": value,
             # A wolf mixture's exploitability: the survival of the best response the league has
-            # against it (the new one, or a member of the population, whose best gets exactly the
+            # against it (the new one, or the population's best member, which gets exactly the
             # game's value against a Nash mixture); a target mixture's: the capture rate of the
             # wolves' best. A best response trained briefly may do worse than the population.
             "best_response_rates": {"wolves": wolves_br, "targets": targets_br},
-            "exploitability": {"wolves": 1.0 - min(targets_br, value), "targets": max(wolves_br, value)},
-            "nash_conv": max(wolves_br - value, 0.0) + max(value - targets_br, 0.0),
+            "exploitability": {"wolves": 1.0 - best_targets, "targets": best_wolves},
+            # Each side's best gain over the mixtures' payoff (for Nash mixtures the excess over
+            # the game's value).
+            "nash_conv": best_wolves - best_targets,
             "best_responses": {side: {"model": str(Path(new[side]).relative_to(out)), "agent_steps": summaries[side]["agent_steps"], "train_s": summaries[side]["train_s"]} for side in SIDES},
         }
         records.append(record)
@@ -221,7 +241,7 @@ def league(
             progress(record)
 
     m = payoffs.matrix(pops["wolves"], pops["targets"])
-    x, y, value = nash(m)
+    x, y, value = mixtures(m, meta_solver)
     final_dir = out / "final"
     finals = train_both(final_dir, {"wolves": pool(pops["targets"], y), "targets": pool(pops["wolves"], x)}, seed * 1000 + iterations + 1)
     doc = {

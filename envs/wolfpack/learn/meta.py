@@ -1,5 +1,7 @@
-"""The meta-solver of the league: a Nash equilibrium of the empirical game between the two
-populations.
+"""The meta-solvers of the league: the mixture of each population that the other side's next
+best response trains against. ``nash`` (the default): a Nash equilibrium of the empirical game
+between the two populations; ``uniform``: every member alike (fictitious play), kept to measure
+the choice against.
 
 Pursuit–evasion between one pack and one escaper is a two-player zero-sum game (what the wolves
 capture the targets lose), so its Nash equilibria are its minimax mixtures, and a linear program
@@ -14,6 +16,23 @@ side measures that mixture's exploitability directly, which is what the league l
 from __future__ import annotations
 
 import numpy as np
+
+#: The meta-solvers a league can use (:func:`mixtures`).
+META_SOLVERS = ("nash", "uniform")
+
+
+def mixtures(payoff: np.ndarray, solver: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """Each side's mixture over its population for the zero-sum game ``payoff`` [wolves,
+    targets] (the wolves maximise): (wolves' mixture, targets' mixture, the payoff of the one
+    against the other). ``nash``: the minimax mixtures (:func:`nash`); ``uniform``: every
+    member alike."""
+    if solver == "nash":
+        return nash(payoff)
+    if solver == "uniform":
+        m = np.asarray(payoff, dtype=float)
+        x, y = np.full(m.shape[0], 1.0 / m.shape[0]), np.full(m.shape[1], 1.0 / m.shape[1])
+        return x, y, float(x @ m @ y)
+    raise ValueError(f"meta-solver {solver!r}: one of {', '.join(META_SOLVERS)}")
 
 
 def nash(payoff: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
