@@ -185,3 +185,15 @@ def test_cpu_caches_read_what_one_core_sees_from_sysfs(monkeypatch, tmp_path) ->
     assert caches == {"L1d": 32 * 1024, "L1i": 32 * 1024, "L2": 1024**2, "L3": 32 * 1024**2}
     assert machine.caches_text(caches) == ", caches L2 1 MiB, L3 32 MiB"
     assert machine.caches_text({}) == "" and machine.cpu_caches(tmp_path / "missing") == {}
+
+
+def test_episode_engines_play_the_same_episodes_and_report_both_rates() -> None:
+    script = SCRIPT.with_name("episode_engines.py")
+    cmd = [sys.executable, str(script), "--episodes", "8", "--loads", "0", "--repeats", "1", "--json"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    doc = json.loads(done.stdout)
+    medians = doc["loads"]["0"]["median"]
+    assert set(medians) == {"episodes (rayon)", "batch"}
+    assert all(rate > 0 for by_threads in medians.values() for rate in by_threads.values())
+    assert set(medians["batch"]) == {"1", "2"}
