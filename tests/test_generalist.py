@@ -277,3 +277,25 @@ def test_imitation_warms_up_a_multi_task_pack_on_every_task(tmp_path):
     # Both tasks' worlds gave labels: 16 steps of 4 worlds of 5 wolves and 4 of 3.
     assert rounds[0]["samples"]["wolves"] == 16 * (4 * 5 + 4 * 3)
     assert summary["agent_steps"] >= 1_000
+
+
+def test_the_generalist_report_scores_every_run_and_draws_curves_only_from_multi_task_runs(multi_run, tmp_path):
+    """training/generalist.py over a multi-task run and a run of one task (as a fine-tuning
+    league's final pack is): both scored on every task; the per-task curves need every run to
+    have been evaluated per task, so with the one-task run there are none, and a note says so."""
+    multi, _ = multi_run
+    single = tmp_path / "single"
+    tiny(single, ["hunt-v1"], timesteps=600)
+    script = ROOT / "training" / "generalist.py"
+
+    def report(out: Path, *runs: Path) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, str(script), "--episodes", "2", "--out", str(out), *map(str, runs)], capture_output=True, text=True, timeout=600)
+
+    both = report(tmp_path / "both", multi, single)
+    assert both.returncode == 0, both.stderr
+    doc = json.loads((tmp_path / "both" / "generalist.json").read_text())
+    assert len(doc["scorecards"]) == 2 and doc["tasks"]["hunt-v1"]["captured"]["n"] == 2
+    assert not (tmp_path / "both" / "curves.png").exists() and "no curves.png" in both.stderr
+    alone = report(tmp_path / "alone", multi)
+    assert alone.returncode == 0, alone.stderr
+    assert (tmp_path / "alone" / "curves.png").is_file()

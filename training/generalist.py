@@ -4,15 +4,17 @@ each beside the best analytic law (bvc on the variations), reported as the field
     python training/generalist.py --out results/learned/generalist runs/generalist/seed*
 
 Each RUN is one training seed's run folder of a multi-task ``wolfpack train`` (``--task all
---hp network=entities``). Each final model is scored by ``wolfpack benchmark``'s scorecard on
-every task and on every variation of the generalisation track (deterministic, the held-out
-episodes 500000 + k, the laws played on the same episodes). Over the seeds: the interquartile
+--hp network=entities``), or of any ``wolfpack train --side wolves`` whose model plays every
+task (a fine-tuning league's final pack: then there is no curve per task to draw). Each final
+model is scored by ``wolfpack benchmark``'s scorecard on every task and on every variation of
+the generalisation track (deterministic, the held-out episodes 500000 + k, the laws played on
+the same episodes). Over the seeds: the interquartile
 mean with a 95 % percentile bootstrap interval (``wolfpack.stats.iqm_interval``), per task, of the
 capture rate and of the wolf collision rate, beside the best law of that task.
 
 Writes into --out: generalist.json (every seed's scorecards and the summary), generalist.md (the
 tables) and curves.png (each task's held-out capture rate during training against agent-steps:
-the median over seeds, the range shaded).
+the median over seeds, the range shaded; runs of a multi-task ``wolfpack train`` only).
 """
 
 from __future__ import annotations
@@ -131,7 +133,10 @@ def main(argv: list[str] | None = None) -> int:
         *table("The generalisation track", doc["generalisation"], "bvc"),
     ]
     (out / "generalist.md").write_text("\n".join(text))
-    curves(out, runs)
+    if all(any("tasks" in e for e in json.loads((run / "evaluations.json").read_text())) for run in runs):
+        curves(out, runs)
+    else:  # runs of one task (a league's final pack, say) have no curve per task to draw
+        print("generalist.py: no curves.png: not every run was evaluated per task during training", file=sys.stderr)
     print("\n".join(text))
     return 0
 
