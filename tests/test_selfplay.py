@@ -18,6 +18,7 @@ from wolfpack import cli  # noqa: E402
 from wolfpack.evaluation import report  # noqa: E402
 from wolfpack.learn.matches import play  # noqa: E402
 from wolfpack.learn.sb3 import env_params, load_model  # noqa: E402
+from wolfpack.learn.selfplay import PFSP_FLOOR, sampling_weights, win_rate  # noqa: E402
 
 evaluate = training_script("evaluate")
 selfplay = training_script("selfplay")
@@ -104,12 +105,12 @@ def test_selfplay_refuses_to_overwrite_and_resumes(league, capsys):
 def test_prioritised_sampling_meets_the_opponents_it_loses_to():
     league = {"evaluations": [{"wolves": "w", "targets": "easy", "capture_rate": 1.0}, {"wolves": "w", "targets": "hard", "capture_rate": 0.1}]}
     pool = [{"name": "easy", "generation": 0}, {"name": "hard", "generation": 0}, {"name": "new", "generation": 3}]
-    easy, hard, new = selfplay.sampling_weights(league, "wolves", "w", pool, "prioritised")
-    assert easy == pytest.approx(selfplay.PFSP_FLOOR) and hard == pytest.approx(0.81 + selfplay.PFSP_FLOOR) and new == pytest.approx(0.25 + selfplay.PFSP_FLOOR)
-    assert selfplay.sampling_weights(league, "wolves", "w", pool, "latest") == [0.0, 0.0, 1.0]
-    assert selfplay.sampling_weights(league, "wolves", "w", pool, "uniform") == [1.0, 1.0, 1.0]
+    easy, hard, new = sampling_weights(league, "wolves", "w", pool, "prioritised")
+    assert easy == pytest.approx(PFSP_FLOOR) and hard == pytest.approx(0.81 + PFSP_FLOOR) and new == pytest.approx(0.25 + PFSP_FLOOR)
+    assert sampling_weights(league, "wolves", "w", pool, "latest") == [0.0, 0.0, 1.0]
+    assert sampling_weights(league, "wolves", "w", pool, "uniform") == [1.0, 1.0, 1.0]
     # A target member's win rate is its survival rate.
-    assert selfplay.win_rate(league, "hard", "targets", "w") == pytest.approx(0.9)
+    assert win_rate(league, "hard", "targets", "w") == pytest.approx(0.9)
 
 
 def test_selfplay_bad_arguments_exit_2(tmp_path, capsys):

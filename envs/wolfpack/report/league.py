@@ -1,24 +1,14 @@
-"""A league's table and curves (``training/selfplay.py``'s ``league.json``): every member's rate
-against every member of the other side, and the members' rates generation after generation."""
+"""A league's table and curves (``training/selfplay.py``'s ``league.json``, the format of
+:mod:`wolfpack.learn.selfplay`): every member's rate against every member of the other side,
+and the members' rates generation after generation."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from wolfpack.learn.selfplay import members_of, win_rate
 from wolfpack.plots import SIDE_COLOURS
 from wolfpack.sides import OTHER_SIDE, SIDES
-
-
-def members_of(league: dict, side: str) -> list[dict]:
-    return [m for m in league["members"] if m["side"] == side]
-
-
-def win_rate(league: dict, member: str, side: str, opponent: str) -> float | None:
-    """``member``'s (of ``side``) win rate against ``opponent`` in the league table, or None."""
-    for e in league["evaluations"]:
-        if (e["wolves"], e["targets"]) == ((member, opponent) if side == "wolves" else (opponent, member)):
-            return e["capture_rate"] if side == "wolves" else 1.0 - e["capture_rate"]
-    return None
 
 
 def league_table(league: dict, steps_header: str = "timesteps") -> str:
