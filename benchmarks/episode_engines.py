@@ -19,20 +19,16 @@ BENCHMARKS.md, "One episode engine or two".
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
-import subprocess
 import sys
 import time
-from pathlib import Path
 from typing import Callable
 
 import wolfpack
-from machine import machine_info
+from machine import busy_processes, emit, machine_info
 from wolfpack.evaluation import rollout
 from wolfpack.task import task_params
 
-SPIN = "while True: pass"
 THREADS = (1, 2)
 
 
@@ -83,25 +79,15 @@ def main(argv: list[str] | None = None) -> int:
     params = task_params(args.task)
     doc = {"machine": machine_info(), "started": time.strftime("%Y-%m-%d %H:%M:%S"), "task": args.task, "episodes": args.episodes, "repeats": args.repeats, "loads": {}}
     for k in loads:
-        busy = [subprocess.Popen([sys.executable, "-c", SPIN]) for _ in range(k)]
-        try:
-            time.sleep(0.2 if k else 0)
+        with busy_processes(k):
             rates = measure(params, args.episodes, args.repeats)
-        finally:
-            for p in busy:
-                p.kill()
-                p.wait()
         medians = {name: {t: statistics.median(r) for t, r in by_t.items()} for name, by_t in rates.items()}
         doc["loads"][k] = {"rates": rates, "median": medians}
         if not args.json:
             for t in THREADS:
                 e, b = medians["episodes (rayon)"][t], medians["batch"][t]
                 print(f"K={k} {t} thread(s): episodes (rayon) {e / 1e3:6.0f} k  batch {b / 1e3:6.0f} k env-steps/s  batch/episodes = {b / e:.2f}", flush=True)
-    text = json.dumps(doc, indent=1)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
-    if args.json:
-        print(text)
+    emit(doc, args.out, args.json)
     return 0
 
 

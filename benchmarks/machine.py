@@ -1,16 +1,21 @@
 """What describes the machine and the load a benchmark ran on: CPU, caches, cores, load
 average, the CPU that other processes took, and which wolfpack was measured. Every benchmark
-script puts ``machine_info()`` in its report; standard library only."""
+script puts ``machine_info()`` in its report; ``busy_processes`` makes a load of its own and
+``emit`` writes the report. Standard library only."""
 
 from __future__ import annotations
 
+import contextlib
 import datetime
+import json
 import os
 import platform
 import subprocess
+import sys
+import time
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 
 def version(pkg: str) -> str | None:
@@ -139,3 +144,26 @@ def caches_text(caches: dict[str, int] | None) -> str:
         return ""
     size = lambda b: f"{b // 1024**2} MiB" if b % 1024**2 == 0 else f"{b // 1024} KiB"  # noqa: E731
     return ", caches " + ", ".join(f"{name} {size(b)}" for name, b in caches.items() if name in ("L2", "L3"))
+
+
+@contextlib.contextmanager
+def busy_processes(k: int) -> Iterator[None]:
+    """``k`` processes that spin on a core each while the block runs (a learner beside the env),
+    given a moment to start, and killed after it whatever happens."""
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(k)]
+    try:
+        time.sleep(0.2 if k else 0)
+        yield
+    finally:
+        for p in busy:
+            p.kill()
+            p.wait()
+
+
+def emit(doc: dict, out: str | None, as_json: bool) -> None:
+    """A benchmark's JSON document: written to ``out`` when given, printed when ``as_json``."""
+    text = json.dumps(doc, indent=1)
+    if out:
+        Path(out).write_text(text + "\n")
+    if as_json:
+        print(text)

@@ -16,18 +16,13 @@ machine from E = 64 up. Results in BENCHMARKS.md, "Threads beside a busy process
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
-import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
-from machine import machine_info
+from machine import busy_processes, emit, machine_info
 from wolfpack import BatchEnv
-
-SPIN = "while True: pass"
 
 
 def rate(env: BatchEnv, actions: np.ndarray, seconds: float) -> float:
@@ -76,24 +71,14 @@ def main(argv: list[str] | None = None) -> int:
     threads = [1, 2]
     doc = {"machine": machine_info(), "started": time.strftime("%Y-%m-%d %H:%M:%S"), "repeats": args.repeats, "seconds": args.seconds, "loads": {}}
     for k in loads:
-        busy = [subprocess.Popen([sys.executable, "-c", SPIN]) for _ in range(k)]
-        try:
-            time.sleep(0.2 if k else 0)
+        with busy_processes(k):
             runs = measure(sizes, threads, args.repeats, args.seconds)
-        finally:
-            for p in busy:
-                p.kill()
-                p.wait()
         doc["loads"][k] = {e: {"rates": {t: r for t, r in by_t.items()}, "median": {t: statistics.median(r) for t, r in by_t.items()}} for e, by_t in runs.items()}
         if not args.json:
             for e, row in doc["loads"][k].items():
                 m = row["median"]
                 print(f"K={k} E={e:<5} 1 thread {m[1] / 1e3:7.0f} k  2 threads {m[2] / 1e3:7.0f} k  2/1 = {m[2] / m[1]:.2f}", flush=True)
-    text = json.dumps(doc, indent=1)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
-    if args.json:
-        print(text)
+    emit(doc, args.out, args.json)
     return 0
 
 
