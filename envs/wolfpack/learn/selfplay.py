@@ -59,8 +59,10 @@ from wolfpack.evaluation import HELD_OUT_SEED, report
 from wolfpack.learn.checkpoints import TRAINER_FILE
 from wolfpack.learn.matches import play
 from wolfpack.learn.recipes import recipe, recipes_params_overrides
+from wolfpack.learn.run import default_threads
 from wolfpack.learn.sb3 import TrainedModel, load_model, prepare_out
 from wolfpack.models import CONFIG_FILE, load_tensors
+from wolfpack.opponents import Opponent
 from wolfpack.sides import OTHER_SIDE, SCRIPTED_LAWS, SIDES, side_action_mode
 
 LEAGUE_FILE = "league.json"
@@ -187,8 +189,6 @@ class Member:
     def opponent(self):
         """What ``set_opponent`` takes: the law's name, or the model (it brings its own action
         mode and observation keys)."""
-        from wolfpack.opponents import Opponent
-
         if self.model is None:
             return self.name
         return Opponent(self.model.model, side=self.model.side, action_mode=self.model.action_mode, name=self.name)
@@ -221,7 +221,6 @@ def run_generation(args: SelfPlayOptions, out: Path, league: dict, k: int, side:
     member; None when no update finished (interrupted, or no time left)."""
     import torch
 
-    from wolfpack.learn.run import default_threads
     from wolfpack.learn.trainer import Trainer, TrainSpec
 
     pool = [Member(m, out) for m in members_of(league, OTHER_SIDE[side])]
