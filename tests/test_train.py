@@ -357,9 +357,8 @@ def test_a_run_starts_from_a_saved_model_with_its_recipe_and_a_critic_that_learn
     the critic learns, so after one update the actor's weights are still the model's (its
     observation normaliser goes on counting); later updates move it. The model is loaded once:
     the trainer takes the one that the run's checks loaded."""
-    import yaml
-
     import wolfpack.learn.trainer
+    import yaml
 
     def second_load(*args, **kwargs):
         raise AssertionError("the trainer loaded the --init model a second time")
