@@ -8,6 +8,7 @@ from wolfpack.report import exploitability as exploitability_report
 from wolfpack.report import psro as psro_report
 from wolfpack.report.blocks import block
 from wolfpack.report.documents import Results
+from wolfpack.stats import iqm_cell, iqm_interval
 
 
 @block("generalist-exploitability")
@@ -24,34 +25,133 @@ def generalist_exploitability(results: Results) -> str:
     return exploitability_report.over_training_seeds(docs)
 
 
-def _tuned_seeds(results: Results) -> list[str]:
-    """The training seeds of the generalist whose pack a fine-tuning league went on from and
-    whose result was measured (``learned/generalist/league-tuned-exploit-seed<S>``)."""
-    found = (results.root / "learned" / "generalist").glob("league-tuned-exploit-seed*")
-    return sorted((p.name.rsplit("seed", 1)[1] for p in found), key=int)
+#: The fine-tuning leagues of one plan (``--fine-tune``, Nash, the targets starting from
+#: ``escape`` and the seven committed learned escapers), by the generalist's training seed: each
+#: league's folder and its final pack's exploitability folder under ``learned/generalist/``.
+#: Seed 4's ran first, under the name its models' labels still carry.
+POOL_LEAGUES = {
+    **{seed: (f"league-pool-seed{seed}", f"league-pool-exploit-seed{seed}") for seed in (0, 1, 2, 3)},
+    4: ("league-tuned-seed4", "league-tuned-exploit-seed4"),
+}
+#: The league from seed 2's pack whose targets started from ``escape`` alone.
+ESCAPE_LEAGUE = ("league-tuned-seed2", "league-tuned-exploit-seed2")
+#: Seed 4's league again with the uniform meta-solver (fictitious play).
+UNIFORM_LEAGUE = ("league-uniform-seed4", "league-uniform-exploit-seed4")
+
+
+def _members(members: list[str]) -> str:
+    return ", ".join(f"`{m}`" for m in members)
+
+
+def _exploitability_path(doc: dict) -> str:
+    return " → ".join(f"{100 * r['exploitability']['wolves']:.0f}" for r in doc["history"])
 
 
 @block("fine-tuned-league")
 def fine_tuned_league(results: Results) -> str:
-    """Each fine-tuning league's history (``wolfpack league --fine-tune`` from a generalist seed)."""
-    parts = []
-    for seed in _tuned_seeds(results):
-        doc = results.json(f"learned/generalist/league-tuned-seed{seed}/league.json")
-        targets = ", ".join(f"`{t}`" for t in doc["targets"])
-        parts.append(
-            f"From seed {seed}'s pack, the targets' population starting with {targets}; {doc['iterations']} iterations of {doc['budget']:,} agent-steps per side ({doc['wall_s'] / 60:.0f} min):\n\n"
-            + psro_report.history_table(doc)
-        )
-    return "\n".join(parts)
+    """The fine-tuning leagues (``wolfpack league --fine-tune``), one per generalist seed, all of
+    one plan: what the league itself measured of the wolves' mixture, iteration by iteration;
+    then the league that differs, from seed 2's pack with the targets starting from ``escape``
+    alone, in full."""
+    docs = {seed: results.json(f"learned/generalist/{league}/league.json") for seed, (league, _) in POOL_LEAGUES.items()}
+    first = next(iter(docs.values()))
+    plan = ("iterations", "budget", "task", "targets", "meta_solver", "fine_tune")
+    for seed, doc in docs.items():
+        differs = [k for k in plan if doc.get(k) != first.get(k)]
+        if differs:
+            raise ValueError(f"{POOL_LEAGUES[seed][0]}: another plan than the other seeds' ({', '.join(differs)})")
+    lines = [
+        f"{first['iterations']} iterations of {first['budget']:,} agent-steps per side on `{first['task']}`, the wolves starting from each seed's warm-started generalist "
+        f"and the targets from {_members(first['targets'])}:",
+        "",
+        "| training seed | wall time | the wolves' mixture's exploitability, iteration 1 → last (%) | NashConv, last iteration | final wolves' mixture |",
+        "|---:|---:|---|---:|---|",
+    ]
+    for seed, doc in docs.items():
+        final = ", ".join(f"`{m}` {w:.2f}" for m, w in doc["final"]["mixtures"]["wolves"].items())
+        lines.append(f"| {seed} | {doc['wall_s'] / 60:.0f} min | {_exploitability_path(doc)} | {doc['history'][-1]['nash_conv']:.3f} | {final} |")
+    escape = results.json(f"learned/generalist/{ESCAPE_LEAGUE[0]}/league.json")
+    lines += [
+        "",
+        f"From seed 2's pack with the targets starting from {_members(escape['targets'])} alone ({escape['wall_s'] / 60:.0f} min):",
+        "",
+        psro_report.history_table(escape),
+    ]
+    return "\n".join(lines)
 
 
 @block("fine-tuned-exploitability")
 def fine_tuned_exploitability(results: Results) -> str:
-    """The exploitability of each generalist seed's pack before and after its fine-tuning league,
-    measured the same way (fresh escapers from scratch, 5 seeds)."""
-    docs = {}
-    for seed in _tuned_seeds(results):
-        docs[f"seed {seed}: the warm-started generalist"] = results.json(f"learned/generalist/imitation-exploit-seed{seed}/exploit.json")
-        docs[f"seed {seed}: after the fine-tuning league (its final pack)"] = results.json(f"learned/generalist/league-tuned-exploit-seed{seed}/exploit.json")
-    lines, _ = exploitability_report.packs_table(docs)
+    """The exploitability of each seed's pack after its fine-tuning league, over the training
+    seeds (fresh escapers from scratch, 5 seeds each); then the league that started the targets
+    from ``escape`` alone, before and after."""
+    docs = {f"seed {seed}: after its fine-tuning league": results.json(f"learned/generalist/{exploit}/exploit.json") for seed, (_, exploit) in POOL_LEAGUES.items()}
+    escape = {
+        "seed 2, targets from `escape` alone: the warm-started generalist": results.json("learned/generalist/imitation-exploit-seed2/exploit.json"),
+        "seed 2, targets from `escape` alone: after its league": results.json(f"learned/generalist/{ESCAPE_LEAGUE[1]}/exploit.json"),
+    }
+    lines, _ = exploitability_report.packs_table(escape)
+    return exploitability_report.over_training_seeds(docs) + "\n" + "\n".join(lines) + "\n"
+
+
+@block("meta-solver")
+def meta_solver(results: Results) -> str:
+    """The meta-solver measured: seed 4's fine-tuning league with the Nash mixture and with the
+    uniform one (fictitious play), each final pack's exploitability by fresh escapers."""
+    rows = {"nash": POOL_LEAGUES[4], "uniform": UNIFORM_LEAGUE}
+    lines = [
+        "| meta-solver | wall time | the wolves' mixture's exploitability in the league, iteration 1 → last (%) | final pack: survival of fresh escapers, IQM [95 % CI] | per best-response seed |",
+        "|---|---:|---|---|---|",
+    ]
+    for solver, (league_folder, exploit_folder) in rows.items():
+        doc = results.json(f"learned/generalist/{league_folder}/league.json")
+        if doc["meta_solver"] != solver:
+            raise ValueError(f"{league_folder}: a league of the {doc['meta_solver']} meta-solver, not {solver}")
+        b = results.json(f"learned/generalist/{exploit_folder}/exploit.json")["budgets"][0]
+        seeds = ", ".join(f"{100 * r['rate']:.1f}" for r in b["per_seed"])
+        lines.append(f"| {solver} | {doc['wall_s'] / 60:.0f} min | {_exploitability_path(doc)} | {iqm_cell(b)} | {seeds} |")
+    return "\n".join(lines) + "\n"
+
+
+@block("fine-tuned-tasks")
+def fine_tuned_tasks(results: Results) -> str:
+    """Every task of the suite: the fine-tuned packs over their training seeds (each final pack's
+    scorecard) beside the packs they started from (``training/generalist.py``'s JSON of those)
+    and the best law."""
+    before = results.json("learned/generalist/imitation/generalist.json")
+    cards = [results.json(f"learned/generalist/{league}/scorecard/scorecard.json") for league, _ in POOL_LEAGUES.values()]
+    lines = [
+        f"| task | after the leagues: IQM of {len(cards)} seeds [95 % CI] / wolf collisions | per seed ({', '.join(map(str, POOL_LEAGUES))}) | before (the warm-started generalists) | best law |",
+        "|---|---|---|---|---|",
+    ]
+    for task in cards[0]["tasks_played"]:
+        rows = [card["tasks"][task] for card in cards]
+        captured, collisions = iqm_interval([r["score"] for r in rows]), iqm_interval([r["collision_rate"] for r in rows])
+        was, law = before["tasks"][task], before["tasks"][task]["best_law"]
+        per_seed = ", ".join(f"{100 * r['score']:g}" for r in rows)
+        lines.append(
+            f"| `{task}` | {iqm_cell(captured)} / {100 * collisions['iqm']:.1f} % | {per_seed} | "
+            f"{100 * was['captured']['iqm']:.1f} % / {100 * was['collisions']['iqm']:.1f} % | `{law['name']}` {100 * law['captured']:.1f} % |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+@block("fine-tuned-escapers")
+def fine_tuned_escapers(results: Results) -> str:
+    """The fine-tuned packs and the laws against ``escape`` and every committed learned escaper
+    (``training/evaluate.py --matrix``'s JSON): capture rate and, against ``escape``, wolf
+    collisions; the last column each pack's worst case over the learned escapers."""
+    doc = results.json("learned/generalist/league-pool/matrix/matrix.json")
+    cells = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
+    learned = [t for t in doc["targets"] if t not in ("escape", "random", "still")]
+    header = " | ".join(f"`{t.split(':', 1)[1]}`" for t in learned)
+    lines = [f"| wolves | `escape` (collisions) | {header} | worst learned |", "|---|---:|" + "---:|" * len(learned) + "---|"]
+    for w in doc["wolves"]:
+        rates = [cells[(w, t)]["capture_rate"] for t in learned]
+        escape = cells[(w, "escape")]
+        worst = min(range(len(learned)), key=lambda k: rates[k])
+        name = f"`{w}`" if ":" not in w else f"`{w.split(':', 1)[1]}`"
+        lines.append(
+            f"| {name} | {100 * escape['capture_rate']:.1f} % ({100 * escape['collision_rate']:.1f} %) | " + " | ".join(f"{100 * r:.1f}" for r in rates) + f" | **{100 * rates[worst]:.1f} %** |"
+        )
     return "\n".join(lines) + "\n"
