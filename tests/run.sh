@@ -17,7 +17,7 @@ python3 -m pip install -e ".[train,dev]"
 # The tests' time, after the installs: README promises it.
 started=$SECONDS
 echo "== Rust core"
-cargo test --release
+cargo test --profile test-build
 echo "== Python (on every core; without the slow end-to-end checks and the RLlib tests:"
 echo "   python3 -m pytest -m slow and bash tests/rllib/run.sh run those, and CI runs both)"
 python3 -m pytest -m "not slow" -n auto "$@"

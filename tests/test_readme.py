@@ -25,6 +25,9 @@ def python_blocks(path: Path) -> list[str]:
 
 # (file, index within the file, code)
 BLOCKS = [(path.name, k, code) for path in [README, *DOCS] for k, code in enumerate(python_blocks(path))]
+#: The pages whose examples train models (tens of seconds each): end-to-end checks that README's
+#: test command leaves to the slow run.
+TRAINING_PAGES = ("learning.md",)
 
 
 def test_readme_has_python_blocks():
@@ -32,7 +35,10 @@ def test_readme_has_python_blocks():
     assert len(BLOCKS) >= 4
 
 
-@pytest.mark.parametrize(("name", "index", "code"), BLOCKS, ids=[f"{name}-block{k}" for name, k, _ in BLOCKS])
+@pytest.mark.parametrize(
+    ("name", "index", "code"),
+    [pytest.param(name, k, code, id=f"{name}-block{k}", marks=[pytest.mark.slow] if name in TRAINING_PAGES else []) for name, k, code in BLOCKS],
+)
 def test_readme_python_block_runs_as_written(name, index, code, tmp_path):
     # The timeout guards against a hang; how long the examples take is measured, not asserted
     # (the text around each block states it).
