@@ -62,13 +62,17 @@ def table(title: str, summary: dict, reference: str) -> list[str]:
     return lines + [""]
 
 
-def curves(out: Path, runs: list[Path]) -> None:
+def curves(out: Path, runs: list[Path]) -> bool:
+    """curves.png from every run's per-task held-out evaluations; False (nothing drawn) when a
+    run has none (a run of one task)."""
+    evals = [[e for e in json.loads((run / "evaluations.json").read_text()) if "tasks" in e] for run in runs]
+    if not all(evals):
+        return False
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    evals = [[e for e in json.loads((run / "evaluations.json").read_text()) if "tasks" in e] for run in runs]
     tasks = list(evals[0][0]["tasks"])
     fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
     colours = plt.get_cmap("tab10")
@@ -89,6 +93,7 @@ def curves(out: Path, runs: list[Path]) -> None:
     ax.set_title(f"One pack for every task: held-out capture per task during training\n({spread}; {'/'.join(map(str, sorted(episodes)))} episodes per task and point)", fontsize=10)
     fig.savefig(out / "curves.png", dpi=120)
     plt.close(fig)
+    return True
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -133,9 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         *table("The generalisation track", doc["generalisation"], "bvc"),
     ]
     (out / "generalist.md").write_text("\n".join(text))
-    if all(any("tasks" in e for e in json.loads((run / "evaluations.json").read_text())) for run in runs):
-        curves(out, runs)
-    else:  # runs of one task (a league's final pack, say) have no curve per task to draw
+    if not curves(out, runs):  # runs of one task (a league's final pack, say)
         print("generalist.py: no curves.png: not every run was evaluated per task during training", file=sys.stderr)
     print("\n".join(text))
     return 0
