@@ -35,6 +35,9 @@ from wolfpack.learn.selfplay import LEAGUE_FILE, SAMPLING, SelfPlayOptions, self
 from wolfpack.report.league import league_curves, league_table
 from wolfpack.sides import SCRIPTED_LAWS, SIDES
 
+#: The library's defaults, which the options' defaults are.
+DEFAULTS = SelfPlayOptions(out="")
+
 
 def laws_arg(side: str):
     allowed = SCRIPTED_LAWS["wolves"] if side == "wolves" else SCRIPTED_LAWS["targets"]
@@ -53,26 +56,32 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="selfplay.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", required=True, help="the league folder")
     p.add_argument("--resume", action="store_true", help="go on with the league in --out (its scenario and fixed members)")
-    p.add_argument("--generations", type=int_at_least(1), default=6, help="generations in the league in all (default 6; with --resume: the new total)")
+    p.add_argument("--generations", type=int_at_least(1), default=DEFAULTS.generations, help=f"generations in the league in all (default {DEFAULTS.generations}; with --resume: the new total)")
     p.add_argument("--time-limit", type=positive_number, default=None, metavar="MIN", help="wall-clock minutes for this invocation, shared over the generations still to run")
-    p.add_argument("--timesteps", type=int_at_least(1), default=200_000_000, help="most agent-steps per generation (default 2e8; the time limit usually ends a generation first)")
-    p.add_argument("--algo", choices=ALGOS, default="mappo", help="the trainer's algorithm for both sides (default mappo; a new league only)")
-    p.add_argument("--first", choices=SIDES, default="targets", help="the side of generation 1 (default targets)")
-    p.add_argument("--pool-sampling", choices=SAMPLING, default="prioritised", help="how each rollout's opponent is drawn (default prioritised)")
-    p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=list(SCRIPTED_LAWS["wolves"]), metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
     p.add_argument(
-        "--fixed-targets", type=laws_arg("targets"), default=["escape"], metavar="LAWS", help="comma-separated target laws in the pool (default escape; random and still teach wolves little)"
+        "--timesteps", type=int_at_least(1), default=DEFAULTS.timesteps, help=f"most agent-steps per generation (default {DEFAULTS.timesteps:,}; the time limit usually ends a generation first)"
+    )
+    p.add_argument("--algo", choices=ALGOS, default=DEFAULTS.algo, help=f"the trainer's algorithm for both sides (default {DEFAULTS.algo}; a new league only)")
+    p.add_argument("--first", choices=SIDES, default=DEFAULTS.first, help=f"the side of generation 1 (default {DEFAULTS.first})")
+    p.add_argument("--pool-sampling", choices=SAMPLING, default=DEFAULTS.pool_sampling, help=f"how each rollout's opponent is drawn (default {DEFAULTS.pool_sampling})")
+    p.add_argument("--fixed-wolves", type=laws_arg("wolves"), default=DEFAULTS.fixed_wolves, metavar="LAWS", help="comma-separated wolf laws in the pool (default all three)")
+    p.add_argument(
+        "--fixed-targets",
+        type=laws_arg("targets"),
+        default=DEFAULTS.fixed_targets,
+        metavar="LAWS",
+        help="comma-separated target laws in the pool (default escape; random and still teach wolves little)",
     )
     p.add_argument("--member", dest="members", action="append", default=[], metavar="RUN", help="an existing model (run folder) as a fixed member of its side's pool (repeatable)")
     p.add_argument("--init-wolves", default=None, metavar="RUN", help="the wolves' first learner starts from this run of wolfpack train (its trainer.pt: actor, critic, normalisers)")
     p.add_argument("--init-targets", default=None, metavar="RUN", help="the targets' first learner starts from this run of wolfpack train")
-    p.add_argument("--eval-episodes", type=int_at_least(1), default=100, help="held-out episodes per evaluated pair (default 100)")
+    p.add_argument("--eval-episodes", type=int_at_least(1), default=DEFAULTS.eval_episodes, help=f"held-out episodes per evaluated pair (default {DEFAULTS.eval_episodes})")
     p.add_argument("--num-envs-wolves", type=int_at_least(1), default=None, help="worlds while wolves learn (default: the recipe's)")
     p.add_argument("--num-envs-targets", type=int_at_least(1), default=None, help="worlds while targets learn (default: the recipe's)")
     p.add_argument("--params", default=None, help="params YAML of the league's scenario (default: the documented scenario)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="params override (repeatable)")
     p.add_argument("--hp", dest="hps", action="append", default=[], metavar="KEY=VALUE", help="recipe override for both sides (repeatable; keys: wolfpack/learn/recipes.yaml; a new league only)")
-    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the league (training worlds, PPO, sampling; default 0)")
+    p.add_argument("--seed", type=int_at_least(0), default=DEFAULTS.seed, help=f"seed of the league (training worlds, PPO, sampling; default {DEFAULTS.seed})")
     p.add_argument("--threads", type=int_at_least(1), default=None, help="the batch's threads (default: all cores; the batch and torch take turns)")
     p.add_argument("--torch-threads", type=int_at_least(1), default=None, help="torch threads (default: all cores)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
