@@ -37,6 +37,7 @@ import yaml
 
 from wolfpack.batch import ENTITY_STATE_FIELDS, OUTCOMES, BatchEnv, entity_kinds, entity_shape
 from wolfpack.evaluation import TRAIN_SEED_BASE
+from wolfpack.interrupt import sigint_held
 from wolfpack.learn.checkpoints import TRAINER_FILE, latest_resume_state, plain, versions, write_atomic
 from wolfpack.learn.held_out import HeldOut
 from wolfpack.learn.ppo import SideLearner
@@ -335,12 +336,16 @@ class Trainer:
                     row.update(self._evaluate(self.train_s_before + train_s))
                     eval_s += time.perf_counter() - te
                     evals_done = int(fraction * self.spec.evaluations)
-                writer.writerow({k: cell(row.get(k)) for k in columns})
-                csv_file.flush()
-                if tb is not None:
-                    for k, v in row.items():
-                        if k not in ("update", "agent_steps") and isinstance(v, (int, float)) and math.isfinite(v):
-                            tb.add_scalar(k, v, self.agent_steps)
+                # Held back from Ctrl-C: TensorBoard's writer hands events to its thread through a
+                # queue, and a KeyboardInterrupt inside the queue's notify can leave that thread
+                # asleep, so the close below waits for its flush timer (two minutes).
+                with sigint_held():
+                    writer.writerow({k: cell(row.get(k)) for k in columns})
+                    csv_file.flush()
+                    if tb is not None:
+                        for k, v in row.items():
+                            if k not in ("update", "agent_steps") and isinstance(v, (int, float)) and math.isfinite(v):
+                                tb.add_scalar(k, v, self.agent_steps)
                 if bar is not None:
                     bar.update(self._bar_position(train_s) - bar.n)
                     bar.set_postfix_str(postfix(row, spec.sides), refresh=False)
@@ -350,11 +355,15 @@ class Trainer:
         except KeyboardInterrupt:
             interrupted = True
         finally:
-            csv_file.close()
-            if bar is not None:
-                bar.close()
-            if tb is not None:
-                tb.close()
+            try:
+                with sigint_held():
+                    csv_file.close()
+                    if bar is not None:
+                        bar.close()
+                    if tb is not None:
+                        tb.close()
+            except KeyboardInterrupt:  # a Ctrl-C while the logs closed: the run still saves
+                interrupted = True
         train_s = time.perf_counter() - t_start - eval_s
         self._save(self.out, train_s)
         summary = {
