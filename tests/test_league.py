@@ -58,6 +58,8 @@ def test_the_uniform_meta_solver_weighs_every_member_alike(tmp_path):
         mixtures(m, "pfsp")
     with pytest.raises(LeagueError, match="--meta-solver 'pfsp'"):
         league(tmp_path / "out", meta_solver="pfsp")
+    with pytest.raises(LeagueError, match="--fine-tune 'wolf': both, wolves or targets"):
+        league(tmp_path / "out", fine_tune="wolf")
     assert not (tmp_path / "out").exists()
 
 
@@ -110,15 +112,17 @@ def test_a_league_of_both_sides_runs_end_to_end(tiny_league):
 
 
 @pytest.mark.slow  # whole leagues: a minute in all
-def test_a_fine_tuning_league_starts_each_run_from_the_sides_newest_model(tmp_path):
+@pytest.mark.parametrize("fine_tune", [True, "wolves"])
+def test_a_fine_tuning_league_starts_each_run_from_the_sides_newest_model(tmp_path, fine_tune):
     """--fine-tune: the wolves' runs continue the pack the league started from, then its newest
-    best response; the targets' first run (a population of laws) starts from scratch."""
+    best response; the targets' first run (a population of laws) starts from scratch, and with
+    --fine-tune wolves every one of the targets' runs does."""
     import yaml
 
     start = str(ROOT / "results" / "learned" / "wolves_mappo" / "native_wolves_mappo_s0" / "wolves")
     out = tmp_path / "tuned"
-    doc = league(out, iterations=1, budget=8_192, episodes=4, jobs=2, wolves=[start], fine_tune=True)
-    assert doc["fine_tune"] is True and doc["wolves"] == [start]
+    doc = league(out, iterations=1, budget=8_192, episodes=4, jobs=2, wolves=[start], fine_tune=fine_tune)
+    assert doc["fine_tune"] == fine_tune and doc["wolves"] == [start]
 
     def init(run: str) -> str | None:
         return yaml.safe_load((out / run / "config.yaml").read_text()).get("init")
@@ -126,7 +130,7 @@ def test_a_fine_tuning_league_starts_each_run_from_the_sides_newest_model(tmp_pa
     assert init("iter1/wolves") == {"wolves": start}
     assert init("iter1/targets") is None
     assert init("final/wolves") == {"wolves": str(out / "iter1" / "wolves" / "wolves")}
-    assert init("final/targets") == {"targets": str(out / "iter1" / "targets" / "targets")}
+    assert init("final/targets") == ({"targets": str(out / "iter1" / "targets" / "targets")} if fine_tune is True else None)
     # The fine-tuned pack keeps the network it started from (a best response from scratch would
     # have the wolves' default recipe).
     model = yaml.safe_load((out / "iter1" / "wolves" / "wolves" / "config.yaml").read_text())
@@ -168,6 +172,7 @@ def test_a_stopped_league_resumes_and_ends_as_an_uninterrupted_one(tiny_league, 
         (["--targets", str(ROOT / "results" / "learned" / "wolves_mappo" / "native_wolves_mappo_s0")], "it plays the wolves, not the targets"),
         (["--wolves", "nosuch"], "--wolves nosuch: opponent 'nosuch': not a scripted law"),
         (["--meta-solver", "pfsp"], "--meta-solver: invalid choice: 'pfsp' (choose from 'nash', 'uniform')"),
+        (["--fine-tune", "wolf"], "--fine-tune: invalid choice: 'wolf' (choose from 'both', 'wolves', 'targets')"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):

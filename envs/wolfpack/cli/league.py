@@ -12,6 +12,7 @@ from wolfpack.cli.args import folder, int_at_least
 from wolfpack.learn.league import league
 from wolfpack.learn.meta import META_SOLVERS
 from wolfpack.report.psro import markdown
+from wolfpack.sides import SIDES
 from wolfpack.task import TASK_ORDER
 
 LEAGUE_DESCRIPTION = """\
@@ -20,8 +21,7 @@ meta-solver). Each iteration plays every wolf member against every target member
 meta-game's episodes (seeds 700000 + k), solves the empirical zero-sum game for each side's
 Nash mixture (a linear program), trains one best response per side against the other side's
 mixture ('wolfpack train --opponent …', --budget agent-steps each; from scratch, or with
---fine-tune from the side's newest saved model), adds both to
-the populations, and logs each mixture's exploitability: what the other side's new best
+--fine-tune [SIDE] from the side's newest saved model), adds both to the populations, and logs each mixture's exploitability: what the other side's new best
 response achieves against it. After the last iteration one final policy per side is trained
 against the other side's final mixture: the league's product.
 
@@ -42,7 +42,7 @@ LEAGUE_EPILOG = """\
 examples:
   wolfpack league --out runs/league
   wolfpack league --out runs/league --iterations 8 --budget 4000000 --wolves bvc seed000 --targets escape
-  wolfpack league --out runs/tuned --wolves results/learned/generalist/imitation-seed2 --fine-tune --iterations 3
+  wolfpack league --out runs/tuned --wolves results/learned/generalist/imitation-seed2 --fine-tune wolves --iterations 3
   wolfpack league --out runs/league --resume"""
 
 
@@ -73,8 +73,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--fine-tune",
-        action="store_true",
-        help="each run of a side starts from the side's newest saved model (wolfpack train --init) instead of from scratch: e.g. --wolves <a trained pack> --fine-tune improves that pack against every best response",
+        nargs="?",
+        const="both",
+        default=False,
+        choices=("both", *SIDES),
+        metavar="SIDE",
+        help="each run of SIDE (both, wolves or targets; alone: both) starts from the side's newest saved model (wolfpack train --init) instead of from scratch: e.g. --wolves <a trained pack> --fine-tune wolves improves that pack against best responses trained afresh every iteration",
     )
     p.add_argument(
         "--meta-solver",

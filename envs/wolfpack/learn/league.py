@@ -12,7 +12,8 @@ task). An iteration:
 3. trains a best response of each side against the other side's mixture (``wolfpack train
    --opponent A --opponent A --opponent B …``: the trainer's pool draws one member per rollout,
    so a member's copies stand for its weight, in twentieths): from scratch, or with
-   ``fine_tune`` from the side's newest saved model (``--init``);
+   ``fine_tune`` from the side's newest saved model (``--init``) — both sides', or one side's
+   while the other's best responses start from scratch every iteration;
 4. adds both to the populations and logs each mixture's exploitability: what the best
    response the league has achieves against it — the new one, or the population's best member
    (which gets the game's value against a Nash mixture) — the targets' survival against the
@@ -69,7 +70,7 @@ def plan(
     seed: int,
     wolves: Sequence[str] | None,
     targets: Sequence[str] | None,
-    fine_tune: bool = False,
+    fine_tune: bool | str = False,
     meta_solver: str = "nash",
 ) -> dict:
     """What a league is: what must match for ``resume`` to continue one."""
@@ -84,14 +85,27 @@ def plan(
     for side, members in start.items():
         for member in members:
             check_player(member, side, LeagueError)
-    if not isinstance(fine_tune, bool):
-        raise LeagueError(f"fine_tune {fine_tune!r}: True or False")
+    tuned = fine_tuned_sides(fine_tune)
     if meta_solver not in META_SOLVERS:
         raise LeagueError(f"--meta-solver {meta_solver!r}: one of {', '.join(META_SOLVERS)}")
     doc = {"iterations": iterations, "budget": budget, "task": task, "episodes": episodes, "seed": seed, "meta_solver": meta_solver, "meta_seed": META_SEED, **start}
-    if fine_tune:  # only when asked: the plan of a league from scratch reads as it always did
-        doc["fine_tune"] = True
+    # Only when asked, so that the plan of a league from scratch reads as it always did: true
+    # for both sides, else the one side's name.
+    if tuned:
+        doc["fine_tune"] = True if tuned == SIDES else tuned[0]
     return doc
+
+
+def fine_tuned_sides(fine_tune: bool | str) -> tuple[str, ...]:
+    """The sides whose runs start from their newest saved model: ``fine_tune`` is True or
+    ``"both"`` (both sides), a side's name, or False (none)."""
+    if fine_tune is True or fine_tune == "both":
+        return SIDES
+    if fine_tune is False:
+        return ()
+    if fine_tune in SIDES:
+        return (fine_tune,)
+    raise LeagueError(f"--fine-tune {fine_tune!r}: both, {' or '.join(SIDES)}")
 
 
 def newest_model(members: Sequence[str]) -> str | None:
@@ -166,7 +180,7 @@ def league(
     targets: Sequence[str] | None = None,
     jobs: int = 1,
     cluster: str | None = None,
-    fine_tune: bool = False,
+    fine_tune: bool | str = False,
     meta_solver: str = "nash",
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
@@ -177,9 +191,11 @@ def league(
     times), ``final`` (the final mixtures and the final policy of each side), the payoff matrix
     and ``wall_s``. ``jobs`` = 2 trains both sides' runs of a step at once, on half the cores
     each (here, or on Ray: ``cluster``, see :func:`wolfpack.learn.runs.train_all`);
-    ``fine_tune``: each run of a side starts from the side's newest saved model of ``wolfpack
-    train`` (``--init``: a pack improved against the best responses it met, rather than a new
-    one from scratch every iteration); ``meta_solver``: ``nash`` or ``uniform``
+    ``fine_tune`` (True or ``"both"``, or one side's name): each run of that side starts from
+    the side's newest saved model of ``wolfpack train`` (``--init``: a pack improved against the
+    best responses it met, rather than a new one from scratch every iteration); fine-tuning the
+    wolves alone keeps the targets' best responses fresh, which search away from the escapers
+    the population already holds; ``meta_solver``: ``nash`` or ``uniform``
     (:data:`~wolfpack.learn.meta.META_SOLVERS`); ``progress`` is called with each iteration's
     record."""
     out = Path(out).resolve()  # the members' paths: the same from any working folder
@@ -188,6 +204,7 @@ def league(
         raise LeagueError(f"--jobs {jobs}: 1 or 2 (the two sides' runs of a step)")
     check_cluster(cluster, LeagueError)
     prepare(out, the_plan, resume, RESULT_FILE, "league")
+    tuned = fine_tuned_sides(fine_tune)
     threads = threads_per_run(jobs)
     payoffs = Payoffs(out, task, episodes)
     pops = {side: list(the_plan[side]) for side in SIDES}
@@ -199,7 +216,7 @@ def league(
             options = ["--side", side, "--task", task, "--timesteps", str(budget), "--seed", str(run_seed), "--eval-episodes", str(episodes), "--evaluations", str(EVALUATIONS)]
             options += [a for o in opponents[side] for a in ("--opponent", o)]
             options += ["--threads", str(threads), "--torch-threads", str(threads)]
-            start = newest_model(pops[side]) if fine_tune else None
+            start = newest_model(pops[side]) if side in tuned else None
             if start is not None:
                 options += ["--init", start]
             return TrainRun(folder / side, options, out / LOGS_DIR / f"{folder.name}_{side}.log")
