@@ -9,9 +9,9 @@ one world advancing one step. Rows:
    and the single-world ``parallel_env``.
 2. Gymnasium: ``gymnasium.make_vec("wolfpack/Escape-v0", num_envs=8)``, sync and async (one
    subprocess per world).
-3. TorchRL: ``PettingZooWrapper(parallel_env(learners="all")).rollout`` and
+3. TorchRL: ``PettingZooWrapper(parallel_env(learners="both")).rollout`` and
    ``GymEnv("wolfpack/Escape-v0").rollout`` (random policy, auto-reset).
-4. SuperSuit: ``concat_vec_envs_v1(pettingzoo_env_to_vec_env_v1(parallel_env(learners="all",
+4. SuperSuit: ``concat_vec_envs_v1(pettingzoo_env_to_vec_env_v1(parallel_env(learners="both",
    shared_space=True)), 8, base_class="stable_baselines3")``.
 
 RLlib is measured by ``training/rllib_train.py`` itself (its ``progress.csv``; it needs its own
@@ -141,7 +141,7 @@ def run_gymnasium(mode: str, num_envs: int):
 def run_torchrl_pettingzoo():
     from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
-    return rollout_runner(PettingZooWrapper(wolfpack.parallel_env(learners="all"), use_mask=True))
+    return rollout_runner(PettingZooWrapper(wolfpack.parallel_env(learners="both"), use_mask=True))
 
 
 def run_torchrl_gym():
@@ -153,7 +153,7 @@ def run_torchrl_gym():
 def run_supersuit(copies: int):
     import supersuit as ss
 
-    venv = ss.pettingzoo_env_to_vec_env_v1(wolfpack.parallel_env(learners="all", shared_space=True))
+    venv = ss.pettingzoo_env_to_vec_env_v1(wolfpack.parallel_env(learners="both", shared_space=True))
     venv = ss.concat_vec_envs_v1(venv, copies, num_cpus=0, base_class="stable_baselines3")
     venv.reset()
     return vector_runner(venv.step, venv.num_envs, copies)
@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(measure(f"gymnasium.make_vec(Escape-v0, {e}, {mode})", run, seconds, in_process=(mode == "sync")))
         finally:
             envs.close()
-    for name, make in (("TorchRL PettingZooWrapper(parallel_env(learners='all')).rollout", run_torchrl_pettingzoo), ("TorchRL GymEnv(Escape-v0).rollout", run_torchrl_gym)):
+    for name, make in (("TorchRL PettingZooWrapper(parallel_env(learners='both')).rollout", run_torchrl_pettingzoo), ("TorchRL GymEnv(Escape-v0).rollout", run_torchrl_gym)):
         try:
             rows.append(measure(name, make(), seconds))
         except ImportError as err:

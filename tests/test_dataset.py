@@ -40,7 +40,7 @@ def test_npz_holds_the_scripted_episodes_and_replays_bit_for_bit(tmp_path):
     # Replaying the recorded actions gives the recorded observations, rewards and endings.
     ep = eps[2]
     params = task_params("fast-target-v1", {"policies.wolves": "bvc"})
-    batch = wolfpack.BatchEnv(params, num_envs=1, learners="all", seed=ep["seed"], autoreset=False)
+    batch = wolfpack.BatchEnv(params, num_envs=1, learners="both", seed=ep["seed"], autoreset=False)
     out = batch.reset(ep["seed"])
     for t in range(len(ep["terminated"])):
         assert np.array_equal(out["obs_wolves"][0], ep["obs_wolves"][t]) and np.array_equal(out["obs_targets"][0], ep["obs_targets"][t])

@@ -31,7 +31,7 @@ def in_frame(d: np.ndarray, theta: float) -> np.ndarray:
 
 @pytest.mark.parametrize("task", TASK_ORDER)
 def test_the_rows_hold_the_world_on_every_task(task):
-    batch = wolfpack.BatchEnv(task=task, num_envs=2, learners="all", seed=11, **ENTITIES)
+    batch = wolfpack.BatchEnv(task=task, num_envs=2, learners="both", seed=11, **ENTITIES)
     params = batch.params
     out = batch.reset()
     rng = np.random.default_rng(0)
@@ -83,9 +83,9 @@ def test_the_rows_hold_the_world_on_every_task(task):
 
 def test_the_size_follows_the_capacities_not_the_teams():
     sizes = [(3, 1), (5, 2), (8, 3)]
-    dims = {(n, m): wolfpack.BatchEnv(num_envs=1, learners="all", **ENTITIES, **{"env.state": "entities", "world.wolves": n, "world.targets": m}) for n, m in sizes}
+    dims = {(n, m): wolfpack.BatchEnv(num_envs=1, learners="both", **ENTITIES, **{"env.state": "entities", "world.wolves": n, "world.targets": m}) for n, m in sizes}
     assert len({(b.wolf_obs_dim, b.target_obs_dim, b.state_dim) for b in dims.values()}) == 1
-    more = wolfpack.BatchEnv(num_envs=1, learners="all", **ENTITIES, **{"env.entities.max_obstacles": 10})
+    more = wolfpack.BatchEnv(num_envs=1, learners="both", **ENTITIES, **{"env.entities.max_obstacles": 10})
     assert more.wolf_obs_dim == dims[(3, 1)].wolf_obs_dim + 2 * len(wolfpack.ENTITY_FIELDS)
     # The entity state: one row per agent slot, then the clock.
     b = wolfpack.BatchEnv(num_envs=1, learners="wolves", with_state=True, **ENTITIES, **{"env.state": "entities"})
@@ -96,8 +96,8 @@ def test_the_size_follows_the_capacities_not_the_teams():
 
 
 def test_each_side_keeps_its_own_layout():
-    flat = wolfpack.BatchEnv(num_envs=1, learners="all")
-    mixed = wolfpack.BatchEnv(num_envs=1, learners="all", **{"env.wolf_observation": "entities"})
+    flat = wolfpack.BatchEnv(num_envs=1, learners="both")
+    mixed = wolfpack.BatchEnv(num_envs=1, learners="both", **{"env.wolf_observation": "entities"})
     assert mixed.target_obs_dim == flat.target_obs_dim and mixed.wolf_obs_dim != flat.wolf_obs_dim
     assert "wolf_rows" in blocks("wolves", mixed.params) and "wolf_rows" not in blocks("targets", mixed.params)
 
@@ -105,7 +105,7 @@ def test_each_side_keeps_its_own_layout():
 @pytest.mark.parametrize("threads", [1, 2])
 def test_entity_observations_are_deterministic_for_any_thread_count(threads):
     def run(t):
-        b = wolfpack.BatchEnv(task="cluttered-v1", num_envs=5, learners="all", seed=4, threads=t, with_state=True, **ENTITIES, **{"env.state": "entities"})
+        b = wolfpack.BatchEnv(task="cluttered-v1", num_envs=5, learners="both", seed=4, threads=t, with_state=True, **ENTITIES, **{"env.state": "entities"})
         outs = [b.reset()]
         for _ in range(60):
             outs.append(b.step(np.full((5, b.n_wolves, 2), 0.5, np.float32), np.full((5, b.n_targets, 2), -0.2, np.float32)))

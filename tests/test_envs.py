@@ -61,7 +61,7 @@ def test_sb3_ppo_trains_on_make_vec_env():
 
 
 def _rollout_parallel(seed: int, steps: int = 500):
-    env = wolfpack.parallel_env(learners="all")
+    env = wolfpack.parallel_env(learners="both")
     rng = np.random.default_rng(1)
     obs, infos = env.reset(seed=seed)
     trace = [obs, infos]
@@ -163,7 +163,7 @@ def test_layout_with_other_agent_counts_is_rejected():
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10_000), scale=st.floats(0.1, 5.0))
 def test_observations_stay_in_their_space_and_rewards_are_finite(seed, scale):
-    env = wolfpack.parallel_env(learners="all")
+    env = wolfpack.parallel_env(learners="both")
     obs, _ = env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     for _ in range(60):
@@ -283,7 +283,7 @@ def test_envs_pickle_by_constructor_arguments():
 
 
 def test_parallel_env_bad_actions_name_the_agent():
-    env = wolfpack.parallel_env(learners="all")
+    env = wolfpack.parallel_env(learners="both")
     env.reset(seed=0)
     good = {a: np.zeros(2, np.float32) for a in env.agents}
     with pytest.raises(ValueError, match="wolf_3"):
@@ -314,10 +314,24 @@ def test_stepping_a_finished_episode_is_an_error():
         env.step({})
 
 
+def test_both_sides_learning_has_one_name_and_all_is_its_alias():
+    """ "both" is what every interface says and returns; "all" (the first name) still means it."""
+    for learners in ("both", "all"):
+        batch = wolfpack.BatchEnv(num_envs=2, learners=learners, seed=3)
+        assert batch.learners == "both" and batch.learns_wolves and batch.learns_targets
+        assert wolfpack.parallel_env(learners=learners).learners == "both"
+        assert wolfpack.make_vec_env(num_envs=2, learners=learners, shared_space=True).learners == "both"
+    assert "both" in wolfpack.sides.LEARNERS and "all" not in wolfpack.sides.LEARNERS
+    with pytest.raises(ValueError, match=r"learners must be one of 'wolves', 'targets', 'both', 'none', got 'sheep'"):
+        wolfpack.BatchEnv(learners="sheep")
+
+
 def test_invalid_learners_and_arguments():
     with pytest.raises(ValueError, match="learners"):
         wolfpack.parallel_env(learners="sheep")
-    with pytest.raises(ValueError, match="learners"):
+    with pytest.raises(ValueError, match=r"learners='both'\) needs shared_space=True"):
+        wolfpack.make_vec_env(num_envs=2, learners="both")
+    with pytest.raises(ValueError, match=r"learners='both'\) needs shared_space=True"):
         wolfpack.make_vec_env(num_envs=2, learners="all")
     with pytest.raises(ValueError, match="num_envs"):
         wolfpack.BatchEnv(num_envs=0)

@@ -258,7 +258,7 @@ BAD_VALUES = {
     "parallel_env(seed=-1)": lambda: wolfpack.parallel_env(seed=-1),
     "parallel_env().reset(seed=-1)": lambda: wolfpack.parallel_env().reset(seed=-1),
     "parallel_env().reset(seed=2**64)": lambda: wolfpack.parallel_env().reset(seed=2**64),
-    "parallel_env(shared_space='yes')": lambda: wolfpack.parallel_env(learners="all", shared_space="yes"),
+    "parallel_env(shared_space='yes')": lambda: wolfpack.parallel_env(learners="both", shared_space="yes"),
     "env(seed=2**64)": lambda: wolfpack.env(seed=2**64),
     "env().reset(seed=-1)": lambda: wolfpack.env().reset(seed=-1),
     "Escape-v0 reset(seed=-1)": lambda: _escape().reset(seed=-1),

@@ -2,7 +2,7 @@
 
 The oracle below re-derives, from the module docstring of ``envs/wolfpack/parallel_env.py``
 alone (its Observation Space table and Rewards section), every observation vector and every
-per-step reward that ``wolfpack.parallel_env(learners="all")`` returns, from the world state
+per-step reward that ``wolfpack.parallel_env(learners="both")`` returns, from the world state
 that ``env.unwrapped.world_state()`` shows after the same call. Nothing of wolfpack is used
 for the computation: only the public API, to get states and outputs.
 
@@ -326,7 +326,7 @@ def compare(p, ws, obs, t_seen, rows, stats, ctx, sighting=()):
 def test_default_scenario_fixed_seeds():
     """5 wolves, 1 target, 12 obstacles (circles, polygons, moving): observations and rewards
     on 6 seeds, 40 steps each, half expert / half random actions; the branches are exercised."""
-    env = wolfpack.parallel_env(learners="all")
+    env = wolfpack.parallel_env(learners="both")
     stats = new_stats()
     for seed in range(6):
         run(env, seed, 40, 0.5, stats)
@@ -338,7 +338,7 @@ def test_default_scenario_fixed_seeds():
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), expert_share=st.sampled_from([0.0, 0.5, 0.9]))
 def test_default_scenario_random_seeds(seed, expert_share):
-    env = wolfpack.parallel_env(learners="all")
+    env = wolfpack.parallel_env(learners="both")
     run(env, seed, 25, expert_share, new_stats())
 
 
@@ -346,7 +346,7 @@ def test_three_wolves_two_targets_interaction_row_and_lidar_7():
     """3 wolves, 2 targets, interaction row, 7 rays of 4.5 m, a 20 × 14 arena (W ≠ H, S = 20)
     and a short fatigue delay, so that the target's cap entry falls below 1 within the run."""
     overrides = {"world.wolves": 3, "world.targets": 2, "env.interaction_row": True, "env.lidar.rays": 7, "env.lidar.range": 4.5, "world.border": [-10.0, -7.0, 10.0, 7.0], "escape.fatigue_delay": 4.0}
-    env = wolfpack.parallel_env(learners="all", **overrides)
+    env = wolfpack.parallel_env(learners="both", **overrides)
     p = env.unwrapped.params
     assert p["env"]["lidar"]["rays"] == 7 and list(p["world"]["border"]) == [-10.0, -7.0, 10.0, 7.0]
     stats = new_stats()
@@ -360,7 +360,7 @@ def test_pack_shaping_focus_with_two_targets():
     """``shaping_focus: pack``: every wolf's shaping measures its distance to one target, the
     one nearest the pack as a whole; checked step by step against the reference above, on seeds
     where some wolf's own nearest target is not the pack's (else the check could not fail)."""
-    env = wolfpack.parallel_env(learners="all", **{"world.targets": 2, "rewards.wolves.shaping_focus": "pack"})
+    env = wolfpack.parallel_env(learners="both", **{"world.targets": 2, "rewards.wolves.shaping_focus": "pack"})
     split = 0
     for seed in range(3):
         env.reset(seed=seed)
@@ -374,7 +374,7 @@ def test_pack_shaping_focus_with_two_targets():
 def test_last_sighting_two_targets():
     """The pack's last sighting (two targets, four wolves, mostly random moves so that targets
     are lost and found again): every wolf's block against the oracle, with stale sightings seen."""
-    env = wolfpack.parallel_env(learners="all", **{"world.wolves": 4, "world.targets": 2, "env.last_sighting": True})
+    env = wolfpack.parallel_env(learners="both", **{"world.wolves": 4, "world.targets": 2, "env.last_sighting": True})
     assert env.observation_space("wolf_0").shape == (9 + 5 * 2 + 5 * 3 + 16 + 4 * 2,)
     assert env.observation_space("target_0").shape == (10 + 5 * 4 + 16,)
     stats = new_stats()
@@ -402,10 +402,10 @@ def test_rewards_capture_with_two_targets():
     """Target 0 is captured at step 1 while target 1 plays on: every wolf gets the bonus,
     shaping switches to the nearest *uncaptured* target, target 0 gets −capture_penalty, and
     (BatchEnv, which reports every target) 0 afterwards while target 1 keeps its survival reward."""
-    env = wolfpack.parallel_env(learners="all", **{"world.targets": 2})
+    env = wolfpack.parallel_env(learners="both", **{"world.targets": 2})
     stats = run(env, 0, 6, 0.0, new_stats(), layout=ring_layout(), actions=lambda t, a: STAY)
     assert stats["captures"] == 1, stats
-    batch = wolfpack.BatchEnv(learners="all", num_envs=1, autoreset=False, threads=1, **{"world.targets": 2})
+    batch = wolfpack.BatchEnv(learners="both", num_envs=1, autoreset=False, threads=1, **{"world.targets": 2})
     batch.reset_world(0, 0, ring_layout())
     rewards = [batch.step(np.tile(STAY, (1, 5, 1)), np.tile(STAY, (1, 2, 1)))["rewards_targets"][0] for _ in range(3)]
     rt = batch.params["rewards"]["targets"]
@@ -414,7 +414,7 @@ def test_rewards_capture_with_two_targets():
 
 def test_rewards_terminal_capture():
     """Φ = 0 at a terminal capture (one target): the wolves' shaping is +|d − r_h| of the last state."""
-    env = wolfpack.parallel_env(learners="all")
+    env = wolfpack.parallel_env(learners="both")
     stats = run(env, 0, 3, 0.0, new_stats(), layout=ring_layout(second_target=False), actions=lambda t, a: STAY)
     assert stats["captures"] == 1 and stats["steps"] == 1, stats
 
@@ -427,7 +427,7 @@ NO_FILTER = {"world.feasibility_filter": False}
 def test_wolf_collision_is_terminal_with_zero_potential():
     """Without the feasibility filter wolf 4 drives into a circle: −collision_penalty, Φ(s') = 0."""
     lay = {"wolves": FAR_WOLVES[:4] + [[3.0, -6.0, 0.0]], "targets": [[-6.0, 2.0, 0.0]], "obstacles": [{"kind": "circle", "center": [6.0, -6.0], "radius": 0.8, "moving": False}]}
-    env = wolfpack.parallel_env(learners="all", **NO_FILTER)
+    env = wolfpack.parallel_env(learners="both", **NO_FILTER)
     stats = run(env, 0, 40, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "wolf_4" else STAY)
     assert stats["wolf_collisions"] == 1 and env.unwrapped.world_state()["outcome"] == "collision", stats
 
@@ -442,6 +442,6 @@ def test_target_drives_through_a_circle_and_a_non_convex_polygon():
         "targets": [[-3.0, -5.9, 0.0]],
         "obstacles": [{"kind": "circle", "center": [0.0, -6.0], "radius": 0.8, "moving": False}, {"kind": "polygon", "center": [5.2, -6.0], "vertices": notch, "moving": False}],
     }
-    env = wolfpack.parallel_env(learners="all", **NO_FILTER)
+    env = wolfpack.parallel_env(learners="both", **NO_FILTER)
     stats = run(env, 0, 60, 0.0, new_stats(), layout=lay, actions=lambda t, a: FULL if a == "target_0" else STAY)
     assert stats["steps"] == 60 and stats["target_collisions"] >= 15 and stats["inside"] >= 15 * 16, stats  # ~11 steps in the circle, ~7 in the polygon

@@ -18,7 +18,7 @@ OPTIONAL = {"env.last_sighting": True, "env.interaction_row": True}
 
 @pytest.mark.parametrize("overrides", [{}, OPTIONAL, {"world.wolves": 3, "world.targets": 2, "env.lidar.rays": 5, **OPTIONAL}])
 def test_the_blocks_tile_each_sides_observation(overrides):
-    batch = wolfpack.BatchEnv(num_envs=1, learners="all", **overrides)
+    batch = wolfpack.BatchEnv(num_envs=1, learners="both", **overrides)
     for side, dim in (("wolves", batch.wolf_obs_dim), ("targets", batch.target_obs_dim)):
         blocks = wolfpack.observation_layout(side, **overrides)
         assert [b["start"] for b in blocks] == list(np.cumsum([0] + [b["size"] for b in blocks[:-1]]))
@@ -27,7 +27,7 @@ def test_the_blocks_tile_each_sides_observation(overrides):
 
 
 def test_the_named_entries_hold_what_they_say():
-    batch = wolfpack.BatchEnv(num_envs=2, learners="all", seed=3)
+    batch = wolfpack.BatchEnv(num_envs=2, learners="both", seed=3)
     out = batch.reset()
     for _ in range(7):
         out = batch.step(np.zeros((2, batch.n_wolves, 2), np.float32), np.zeros((2, batch.n_targets, 2), np.float32))

@@ -71,7 +71,7 @@ def test_each_model_acts_in_its_own_action_mode(wolf_model, target_model):
     # wolves' actions in unicycle mode.
     params = wolfpack.load_params()
     by_hand = {**params, "env": {**params["env"], "wolf_action_mode": "velocity"}}
-    want = run_to_end(BatchEnv(by_hand, num_envs=10, learners="all", autoreset=False, threads=1), wolves=wolf_model, targets=target_model)
+    want = run_to_end(BatchEnv(by_hand, num_envs=10, learners="both", autoreset=False, threads=1), wolves=wolf_model, targets=target_model)
     got = run_to_end(BatchEnv(params, num_envs=10, learners="targets", autoreset=False, threads=1, opponent=str(WOLF_MODEL)), targets=target_model)
     assert got == want
     wrong_mode = run_to_end(BatchEnv(params, num_envs=10, learners="targets", autoreset=False, threads=1, opponent=Opponent(str(WOLF_MODEL), action_mode="unicycle")), targets=target_model)
@@ -204,7 +204,7 @@ class _FakeModel:
     [
         (dict(learners="wolves", opponent=str(WOLF_MODEL)), ["wolves_ft", "drives the wolves", "learn"]),
         (dict(learners="targets", opponent="escape"), ["'escape'", "targets", "learn"]),
-        (dict(learners="all", opponent="bvc"), ["learners='all'"]),
+        (dict(learners="both", opponent="bvc"), ["learners='both'"]),
         (dict(learners="none", opponent=lambda o: o), ["learners='none'", "side"]),
         (dict(learners="targets", opponent=_FakeModel(49, 2)), ["49", "50"]),
         (dict(learners="targets", opponent=_FakeModel(50, 3)), ["shape (3,)", "2 entries"]),

@@ -17,7 +17,7 @@ def test_parallel_env_infos_keep_one_numeric_type_per_key_for_the_whole_episode(
     """Every info value is a number of the same type from reset to the end (capture_step once
     was None until a capture and outcome a string, which Gymnasium's vector envs
     and TorchRL cannot stack)."""
-    env = wolfpack.parallel_env(learners="all", **{"policies.wolves": "seed000"})
+    env = wolfpack.parallel_env(learners="both", **{"policies.wolves": "seed000"})
     for seed in (0, 3):
         _, infos = env.reset(seed=seed)
         seen = [infos]
@@ -60,9 +60,9 @@ def test_pettingzoo_state_and_max_cycles_tests():
     """PettingZoo's own ``state_test`` (state_space, state() of the AEC and the parallel env)
     and ``max_cycles_test`` (PettingZoo's ``max_cycles`` keyword is world.max_steps), with the
     AEC env ``wolfpack.env``."""
-    state_test(wolfpack.env(learners="all"), wolfpack.parallel_env(learners="all"))
+    state_test(wolfpack.env(learners="both"), wolfpack.parallel_env(learners="both"))
     max_cycles_test(wolfpack)
-    api_test(wolfpack.env(learners="all"), num_cycles=30)
+    api_test(wolfpack.env(learners="both"), num_cycles=30)
 
 
 def test_state_layout_and_bad_use():
@@ -109,9 +109,9 @@ def test_state_layout_and_bad_use():
 
 
 def test_shared_space_layout_and_bad_use():
-    env = wolfpack.parallel_env(learners="all", shared_space=True)
+    env = wolfpack.parallel_env(learners="both", shared_space=True)
     obs, _ = env.reset(seed=2)
-    plain = wolfpack.parallel_env(learners="all")
+    plain = wolfpack.parallel_env(learners="both")
     ref, _ = plain.reset(seed=2)
     n, m = 5, 1
     dim = 2 + n + m + 51
@@ -129,15 +129,15 @@ def test_shared_space_layout_and_bad_use():
     with pytest.raises(ValueError, match="shared_space"):
         wolfpack.make_vec_env(num_envs=2, learners="targets", shared_space=True)
     with pytest.raises(ValueError, match="shared_space=True"):
-        wolfpack.make_vec_env(num_envs=2, learners="all")
+        wolfpack.make_vec_env(num_envs=2, learners="both")
 
 
 def test_make_vec_env_learners_all_matches_the_parallel_env():
-    """``make_vec_env(learners="all", shared_space=True)``: N+M slots per world, wolves first,
+    """``make_vec_env(learners="both", shared_space=True)``: N+M slots per world, wolves first,
     the ParallelEnv's shared observations and rewards; same-step autoreset keeps the final
     shared observation."""
-    venv = wolfpack.make_vec_env(num_envs=2, learners="all", shared_space=True, seed=4, **{"world.max_steps": 6})
-    env = wolfpack.parallel_env(learners="all", shared_space=True, seed=4, **{"world.max_steps": 6})
+    venv = wolfpack.make_vec_env(num_envs=2, learners="both", shared_space=True, seed=4, **{"world.max_steps": 6})
+    env = wolfpack.parallel_env(learners="both", shared_space=True, seed=4, **{"world.max_steps": 6})
     obs = venv.reset()
     ref, _ = env.reset(seed=4)
     assert obs.shape == (12, env.observation_space("wolf_0").shape[0])
@@ -157,12 +157,12 @@ def test_make_vec_env_learners_all_matches_the_parallel_env():
 
 
 def test_supersuit_concat_vec_envs_trains_sb3_ppo_on_both_sides():
-    """SuperSuit's own conversion of the ParallelEnv (learners="all", shared_space=True) into
+    """SuperSuit's own conversion of the ParallelEnv (learners="both", shared_space=True) into
     SB3 vector envs, and a few thousand steps of PPO with one policy for wolves and target."""
     import supersuit as ss
     from stable_baselines3 import PPO
 
-    venv = ss.pettingzoo_env_to_vec_env_v1(wolfpack.parallel_env(learners="all", shared_space=True))
+    venv = ss.pettingzoo_env_to_vec_env_v1(wolfpack.parallel_env(learners="both", shared_space=True))
     venv = ss.concat_vec_envs_v1(venv, 2, num_cpus=0, base_class="stable_baselines3")
     assert venv.num_envs == 12
     # No seed=: SB3 would call venv.seed(), which SuperSuit 3.11's ConcatVecEnv lacks.
@@ -180,7 +180,7 @@ def test_torchrl_pettingzoo_wrapper_checks_specs_and_rolls_out_grouped_per_side(
     from torchrl.envs.libs.pettingzoo import PettingZooWrapper
     from torchrl.envs.utils import check_env_specs
 
-    env = PettingZooWrapper(wolfpack.parallel_env(learners="all"), use_mask=True)
+    env = PettingZooWrapper(wolfpack.parallel_env(learners="both"), use_mask=True)
     assert set(env.group_map) == {"wolf", "target"}
     check_env_specs(env)
     td = env.rollout(100, break_when_any_done=False)  # resets finished episodes and goes on

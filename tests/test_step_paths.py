@@ -223,7 +223,7 @@ def test_vec_env_non_finite_action_names_the_slot_and_moves_nothing(learners):
     per = venv.num_envs // 2
     for dtype in (np.float32, np.float64):
         bad = np.zeros((venv.num_envs, 2), dtype)
-        bad[per + per - 1, 0] = np.inf  # the last slot of world 1: a target with learners="all"
+        bad[per + per - 1, 0] = np.inf  # the last slot of world 1: a target with learners="both"
         agent = "target_0" if learners == "all" else "wolf_4"
         with pytest.raises(ValueError, match=f"slot {2 * per - 1} \\({agent} in world 1\\) is not finite"):
             venv.step(bad)

@@ -83,7 +83,7 @@ def trajectory_digest(name: str, episodes: int = 20, threads: int | None = None)
 def observation_digest(name: str, steps: int = 120, threads: int | None = None) -> str:
     """Both sides' observations, bit for bit, over ``steps`` steps of 4 worlds where every agent
     learns and turns gently (the lidar noise of short-sight-v1 included)."""
-    batch = wolfpack.BatchEnv(task=name, num_envs=4, learners="all", seed=0, threads=threads)
+    batch = wolfpack.BatchEnv(task=name, num_envs=4, learners="both", seed=0, threads=threads)
     out = batch.reset(0)
     h = hashlib.sha256()
     wolves = np.tile(np.array([0.6, 0.3], np.float32), (4, batch.n_wolves, 1))

@@ -102,7 +102,7 @@ def test_a_captured_target_is_masked_until_its_episode_ends():
 
 def test_same_seed_same_rollout_for_any_thread_count():
     def roll(threads):
-        env = WolfpackEnv(num_envs=6, learners="all", threads=threads, **{"world.max_steps": 30})
+        env = WolfpackEnv(num_envs=6, learners="both", threads=threads, **{"world.max_steps": 30})
         env.set_seed(5)
         torch.manual_seed(0)
         return env.rollout(70, break_when_any_done=False)
@@ -150,7 +150,7 @@ def test_the_cheap_step_and_reset_builds_what_torchrls_generic_one_builds():
     from torchrl.envs import EnvBase
 
     def make():
-        env = WolfpackEnv(num_envs=8, learners="all", **{"world.max_steps": 7})
+        env = WolfpackEnv(num_envs=8, learners="both", **{"world.max_steps": 7})
         env.set_seed(2)
         return env, env.reset()
 
@@ -187,7 +187,7 @@ def test_a_bad_seed_is_refused_and_the_seed_before_it_kept():
 
 
 def test_a_step_without_the_action_is_a_key_error_naming_it():
-    env = WolfpackEnv(num_envs=2, learners="all")
+    env = WolfpackEnv(num_envs=2, learners="both")
     td = env.reset()
     td["wolves", "action"] = torch.zeros(2, 5, 2)
     with pytest.raises(KeyError, match=r"no \('targets', 'action'\) entry"):

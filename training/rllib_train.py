@@ -5,12 +5,12 @@
     python training/rllib_train.py --address auto --num-env-runners 16 --out runs/rllib_cluster
 
 The environment is ``wolfpack.parallel_env`` wrapped in RLlib's own ``ParallelPettingZooEnv``
-(``wolfpack.rllib.env_creator``; env runner k's worlds are seeded from ``--seed`` and k). ``--learners all`` (default) trains both sides at once; the
+(``wolfpack.rllib.env_creator``; env runner k's worlds are seeded from ``--seed`` and k). ``--learners both`` (default) trains both sides at once; the
 other choices train one side against the other side's scripted law (``policies.*`` in the
 params). ``--policies sides`` (default) gives each learning side its own RLModule (``wolves``,
 ``targets``), parameter-shared among that side's agents; ``--policies shared`` one RLModule for
 every agent, on the shared observation space (``shared_space=True``: side flag, agent one-hot,
-padded observation; needs ``--learners all``).
+padded observation; needs ``--learners both``).
 
 Scaling: ``--num-env-runners K`` samples on K Ray actors (one CPU each), ``--envs-per-runner``
 worlds each; the learner (PPO's update) runs in this process. ``--address auto`` joins a running
@@ -48,12 +48,12 @@ from wolfpack.learn.sb3 import env_params
 from wolfpack.rllib import env_creator, shared_mapping, side_mapping
 
 ENV_NAME = "wolfpack_parallel"
-LEARNERS = ("all", "wolves", "targets")
+LEARNERS = ("both", "wolves", "targets")
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="rllib_train.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--learners", choices=LEARNERS, default="all", help="who learns (default all: wolves and targets at once)")
+    p.add_argument("--learners", choices=LEARNERS, default="both", help="who learns (default both: wolves and targets at once)")
     p.add_argument("--policies", choices=("sides", "shared"), default="sides", help="one RLModule per side (default) or one shared by every agent")
     p.add_argument("--iterations", type=int_at_least(1), default=None, help="PPO iterations (default: until --time-limit, else 100)")
     p.add_argument("--time-limit", type=positive_number, default=None, metavar="MIN", help="stop after this many minutes (checked after each iteration)")
@@ -78,7 +78,7 @@ def module_ids(args) -> list[str]:
     """The RLModules trained: ``shared``, or one per learning side."""
     if args.policies == "shared":
         return ["shared"]
-    return {"all": ["wolves", "targets"], "wolves": ["wolves"], "targets": ["targets"]}[args.learners]
+    return {"both": ["wolves", "targets"], "wolves": ["wolves"], "targets": ["targets"]}[args.learners]
 
 
 def algorithm_config(args, params: dict):
@@ -102,8 +102,8 @@ def algorithm_config(args, params: dict):
 def check_args(args) -> Path:
     if args.num_env_runners < 0:
         raise ValueError(f"--num-env-runners must be >= 0, got {args.num_env_runners}")
-    if args.policies == "shared" and args.learners != "all":
-        raise ValueError("--policies shared needs --learners all (one module for both sides)")
+    if args.policies == "shared" and args.learners != "both":
+        raise ValueError("--policies shared needs --learners both (one module for both sides)")
     if args.minibatch > args.train_batch:
         raise ValueError(f"--minibatch {args.minibatch} exceeds --train-batch {args.train_batch}")
     if args.resume is not None:
@@ -158,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             params = env_params(args.params, args.sets)
             if args.policies == "shared":
-                wolfpack.parallel_env(params, learners="all", shared_space=True)  # fails here, not in an actor
+                wolfpack.parallel_env(params, learners="both", shared_space=True)  # fails here, not in an actor
     except ValueError as e:
         print(f"rllib_train.py: error: {e}", file=sys.stderr)
         return 2

@@ -32,7 +32,7 @@ from wolfpack.task import gym_id, single_target_tasks, tasks
 
 def make_vec_env(params=None, *, task=None, num_envs, learners="wolves", seed=0, threads=None, shared_space=False, opponent=None, **overrides):
     """An SB3 ``VecEnv`` over the native batch: one slot per learning agent per world (see
-    :mod:`wolfpack.vec_env`); ``learners="all"`` needs ``shared_space=True``. Imports
+    :mod:`wolfpack.vec_env`); ``learners="both"`` needs ``shared_space=True``. Imports
     stable-baselines3 on first use (an ImportError naming the ``[train]`` extra without it)."""
     from wolfpack._optional import require
 

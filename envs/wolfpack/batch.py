@@ -19,10 +19,8 @@ from wolfpack import _core
 from wolfpack._checks import check_flag, check_index, check_int, check_seed, check_threads
 from wolfpack.config import apply_overrides, check_tree, load_params
 from wolfpack.opponents import Opponent, as_opponent, drivers, opponent_side
-from wolfpack.sides import SIDES
+from wolfpack.sides import SIDES, check_learners
 from wolfpack.task import task_params
-
-LEARNERS: tuple[str, ...] = tuple(_core.LEARNERS)
 
 #: The outcome codes → names, for :meth:`BatchEnv.step`'s ``outcome`` array and every env's
 #: ``infos[...]["outcome"]``: 0 ``running``, 1 ``captured`` (every target captured), 2
@@ -149,12 +147,6 @@ def entity_shape(side: str, params: Mapping[str, Any]) -> tuple[int, int] | None
     return (rows[0]["start"], rows[0]["row_size"]) if rows else None
 
 
-def check_learners(learners: str) -> str:
-    if learners not in LEARNERS:
-        raise ValueError(f"learners must be one of {', '.join(map(repr, LEARNERS))}, got {learners!r}")
-    return learners
-
-
 def first_cornered_step(steps) -> int:
     """The first step at which any target of a world was cornered, from its ``cornered_step``
     row of a :meth:`BatchEnv.step` output (−1 per target that never was); −1 if none was."""
@@ -181,8 +173,8 @@ class BatchEnv:
         task: a task of the benchmark suite instead of ``params`` (:func:`wolfpack.tasks`,
             docs/tasks.md); ``overrides`` change it. An unknown name is a ValueError.
         num_envs: number of worlds E; world i is seeded ``seed + i``.
-        learners: ``"wolves"``, ``"targets"``, ``"all"`` or ``"none"``; the other side follows
-            its scripted law (``policies.*`` in params).
+        learners: ``"wolves"``, ``"targets"``, ``"both"`` (``"all"`` also names it) or
+            ``"none"``; the other side follows its scripted law (``policies.*`` in params).
         seed: base seed, an integer with ``seed + num_envs - 1 < 2**64``.
         autoreset: reset a finished world within the same step (SB3's convention), keeping
             its last observation in ``final_obs_*``.
@@ -345,11 +337,11 @@ class BatchEnv:
 
     @property
     def learns_wolves(self) -> bool:
-        return self.learners in ("wolves", "all")
+        return self.learners in ("wolves", "both")
 
     @property
     def learns_targets(self) -> bool:
-        return self.learners in ("targets", "all")
+        return self.learners in ("targets", "both")
 
     def reset(self, seed: int | None = None) -> dict[str, np.ndarray]:
         """Resets every world; with ``seed``, world i is re-seeded ``seed + i`` (so ``seed +

@@ -104,7 +104,7 @@ def collect(
     per_episode: list[dict[str, np.ndarray]] = []
     for first in range(0, episodes, CHUNK):
         count = min(CHUNK, episodes - first)
-        per_episode += _collect_chunk(params, driver, side, count, seed + first, threads, "all" if both_sides else side)
+        per_episode += _collect_chunk(params, driver, side, count, seed + first, threads, "both" if both_sides else side)
         if progress is not None:
             progress(count)
     steps = [len(ep["terminated"]) for ep in per_episode]
@@ -119,7 +119,7 @@ def collect(
 
 def _collect_chunk(params: dict, driver: Opponent, side: str, count: int, seed: int, threads: int | None, learners: str) -> list[dict]:
     batch = BatchEnv(params, num_envs=count, learners=learners, seed=seed, autoreset=False, threads=threads)
-    sides = SIDES if learners == "all" else (side,)
+    sides = SIDES if learners == "both" else (side,)
     if driver.obs_dim is not None:
         here = batch.wolf_obs_dim if side == "wolves" else batch.target_obs_dim
         if driver.obs_dim != here:
@@ -156,7 +156,7 @@ def upper_bound_bytes(task: str, episodes: int) -> int:
     """The most an npz dataset of ``episodes`` episodes of ``task`` can take (every episode
     running to ``world.max_steps``), in memory while recording and on disk: the figure
     ``wolfpack dataset`` warns with."""
-    probe = BatchEnv(task=check_task(task), num_envs=1, learners="all", threads=1)
+    probe = BatchEnv(task=check_task(task), num_envs=1, learners="both", threads=1)
     n, m = probe.n_wolves, probe.n_targets
     floats = n * probe.wolf_obs_dim + m * probe.target_obs_dim + probe.state_dim + 3 * (n + m)  # observations, state, actions, rewards
     return int(episodes * probe.params["world"]["max_steps"] * (4 * floats + 2))

@@ -65,7 +65,7 @@ def rollout(
     and ``target_wall_distance`` (m, the targets' distance to the nearest wall when the episode
     ended, averaged over targets).
     """
-    learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "all"}[(wolves is not None, targets is not None)]
+    learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "both"}[(wolves is not None, targets is not None)]
     results: list[dict] = []
     for first in range(0, episodes, chunk):
         count = min(chunk, episodes - first)

@@ -219,13 +219,13 @@ def as_opponent(spec: Any) -> Opponent:
 def opponent_side(opponent: Opponent, learners: str) -> str:
     """The side ``opponent`` drives when ``learners`` learn; ValueError when there is none or
     it would drive a side that learns."""
-    if learners == "all":
-        raise ValueError("opponent: with learners='all' both sides learn, so there is no side for an opponent to drive")
+    if learners == "both":
+        raise ValueError("opponent: with learners='both' both sides learn, so there is no side for an opponent to drive")
     free = OTHER_SIDE.get(learners)
     side = opponent.side or free
     if side is None:
         raise ValueError(f"opponent {opponent.name!r}: with learners='none' say which side it drives (Opponent(..., side='wolves' or 'targets'))")
-    if learners in (side, "all"):
+    if learners in (side, "both"):
         raise ValueError(f"opponent {opponent.name!r} drives the {side}, but the {side} learn here (learners={learners!r}); an opponent drives the side that does not learn")
     return side
 
@@ -245,5 +245,5 @@ def drivers(params: dict, learners: str, opponent: Opponent | None) -> tuple[str
     if opponent.action_mode is not None:  # else the params' mode for that side
         p["env"][key] = opponent.action_mode
     bring_observation(p, opponent.observation)
-    driven = {"wolves": {"none": "wolves", "targets": "all"}, "targets": {"none": "targets", "wolves": "all"}}[side][learners]
+    driven = {"wolves": {"none": "wolves", "targets": "both"}, "targets": {"none": "targets", "wolves": "both"}}[side][learners]
     return driven, p

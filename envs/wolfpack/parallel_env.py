@@ -52,7 +52,7 @@ Observation Space
 
     Defaults: D = 50 for a wolf, 51 for a target.
 
-    ``shared_space=True`` (with ``learners="all"`` only) gives every agent one observation
+    ``shared_space=True`` (with ``learners="both"`` only) gives every agent one observation
     space, so that one shared policy can drive both sides (SuperSuit, Tianshou, RLlib's shared
     policies): D = 2 + (N+M) + max(Dw, Dt) — entry 0 is 1 for a wolf, entry 1 is 1 for a
     target, then a one-hot agent index over the N+M agents (wolves first), then the agent's own
@@ -189,7 +189,7 @@ class WolfpackParallelEnv(ParallelEnv):
         frame_options = FrameOptions(**check_render_options(render_options))
         self._batch = BatchEnv(params, task=task, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1, opponent=opponent, **overrides)
         self._view = EnvRendering(self.render_mode, self._batch.params, frame_options, self.metadata["render_fps"])
-        self.learners = learners
+        self.learners = self._batch.learners
         n, m = self._batch.n_wolves, self._batch.n_targets
         self._wolves = [f"wolf_{i}" for i in range(n)] if self._batch.learns_wolves else []
         self._targets = [f"target_{j}" for j in range(m)] if self._batch.learns_targets else []

@@ -18,7 +18,7 @@ SEED_BASE = 1_000_000
 def env_creator(env_config: Mapping[str, Any]):
     """RLlib env creator: RLlib's own ``ParallelPettingZooEnv`` over ``wolfpack.parallel_env``.
 
-    ``env_config``: ``params`` (a params dict, path or None), ``learners`` ("all", "wolves" or
+    ``env_config``: ``params`` (a params dict, path or None), ``learners`` ("both", "wolves" or
     "targets"), ``shared_space`` (bool), ``seed`` (run seed). Each env runner
     (``env_config.worker_index``) and vectorised copy (``vector_index``) gets its own world seed,
     so runners sample different episodes, reproducibly."""
@@ -27,7 +27,7 @@ def env_creator(env_config: Mapping[str, Any]):
     worker = int(getattr(env_config, "worker_index", 0))
     vector = int(getattr(env_config, "vector_index", 0))
     seed = SEED_BASE * (int(env_config.get("seed", 0)) + 1) + 1000 * worker + vector
-    env = parallel_env(env_config.get("params"), learners=env_config.get("learners", "all"), shared_space=bool(env_config.get("shared_space", False)), seed=seed)
+    env = parallel_env(env_config.get("params"), learners=env_config.get("learners", "both"), shared_space=bool(env_config.get("shared_space", False)), seed=seed)
     return ParallelPettingZooEnv(env)
 
 

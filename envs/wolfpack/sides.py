@@ -14,6 +14,19 @@ OTHER_SIDE = {"wolves": "targets", "targets": "wolves"}
 #: The scripted laws each side can follow, by name (the core's own lists).
 SCRIPTED_LAWS: dict[str, tuple[str, ...]] = {"wolves": tuple(_core.WOLF_LAWS), "targets": tuple(_core.TARGET_LAWS)}
 ACTION_MODES = ("unicycle", "velocity")
+#: Who learns in a batch (``learners=``): one side, both or neither (the core's list).
+LEARNERS: tuple[str, ...] = tuple(_core.LEARNERS)
+#: The first name of "both", still taken wherever ``learners`` is.
+LEARNERS_ALIASES = {"all": "both"}
+
+
+def check_learners(learners: Any) -> str:
+    """``learners`` as the package names it (``"all"`` becomes ``"both"``); ValueError listing
+    the names otherwise."""
+    name = LEARNERS_ALIASES.get(learners, learners) if isinstance(learners, str) else learners
+    if name not in LEARNERS:
+        raise ValueError(f"learners must be one of {', '.join(map(repr, LEARNERS))}, got {learners!r}")
+    return name
 
 
 def mode_key(side: str) -> str:

@@ -53,7 +53,7 @@ class WolfpackEnv(EnvBase):
     Args:
         params, task, num_envs, learners, seed, threads, opponent, **overrides: as
             :class:`wolfpack.BatchEnv` (``learners`` must name at least one side: ``"wolves"``,
-            ``"targets"`` or ``"all"``; the other side follows its law or ``opponent``).
+            ``"targets"`` or ``"both"``; the other side follows its law or ``opponent``).
         device: where the tensors are put (the worlds always step on the CPU threads).
 
     The module docstring has the layout. Unknown keywords are a TypeError; a bad value a
@@ -82,7 +82,7 @@ class WolfpackEnv(EnvBase):
         if where.type == "cuda" and not torch.cuda.is_available():
             raise ValueError(f"device: {device!r}, but there is no CUDA device here (torch.cuda.is_available() is False)")
         if learners == "none":
-            raise ValueError("learners: the TorchRL view needs a learning side ('wolves', 'targets' or 'all'); to watch the laws play, use wolfpack.BatchEnv or wolfpack hunt")
+            raise ValueError("learners: the TorchRL view needs a learning side ('wolves', 'targets' or 'both'); to watch the laws play, use wolfpack.BatchEnv or wolfpack hunt")
         self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, opponent=opponent, with_state=True, **overrides)
         b = self.batch
         super().__init__(device=device, batch_size=torch.Size([b.num_envs]))

@@ -3,7 +3,7 @@
 ``make_vec_env(params=None, *, task=None, num_envs, learners="wolves", seed=0, threads=None,
 shared_space=False, opponent=None)`` builds ``num_envs`` worlds; with ``learners="wolves"`` there are
 ``num_envs × N`` slots (slot ``e·N + i`` is wolf i of world e), with ``"targets"`` ``num_envs ×
-M``, and with ``learners="all", shared_space=True`` ``num_envs × (N+M)`` (slot ``e·(N+M) + k``:
+M``, and with ``learners="both", shared_space=True`` ``num_envs × (N+M)`` (slot ``e·(N+M) + k``:
 wolves first, then targets) in the shared observation layout of :mod:`wolfpack.parallel_env`
 (side flag, agent one-hot, padded observation). All slots share one policy (parameter
 sharing). Observations, actions and rewards are those of :mod:`wolfpack.parallel_env`.
@@ -62,6 +62,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from wolfpack._checks import check_seed
 from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
 from wolfpack.parallel_env import action_box, observation_box
+from wolfpack.sides import LEARNERS_ALIASES
 from wolfpack.views import SharedObservation, agent_infos, check_shared_space, world_agent_infos
 
 #: The info of every slot whose world is still running after a step: empty and read-only
@@ -108,25 +109,27 @@ class WolfpackVecEnv(VecEnv):
         **overrides: Any,
     ) -> None:
         self._init_kwargs = dict(params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
-        if learners not in ("wolves", "targets", "all"):
-            raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'all' (with shared_space=True), got {learners!r}")
-        if learners == "all" and shared_space is not True:
+        given = learners
+        learners = LEARNERS_ALIASES.get(learners, learners) if isinstance(learners, str) else learners
+        if learners not in ("wolves", "targets", "both"):
+            raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'both' (with shared_space=True), got {given!r}")
+        if learners == "both" and shared_space is not True:
             raise ValueError(
-                "make_vec_env(learners='all') needs shared_space=True: the two sides have different observation sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
+                "make_vec_env(learners='both') needs shared_space=True: the two sides have different observation sizes, and one VecEnv has one observation space (or train them with two VecEnvs)"
             )
         check_shared_space(shared_space, learners)
         self.batch = BatchEnv(params, task=task, num_envs=num_envs, learners=learners, seed=seed, autoreset=True, threads=threads, opponent=opponent, **overrides)
         self.learners = learners
         self.worlds = self.batch.num_envs
         n, m = self.batch.n_wolves, self.batch.n_targets
-        self.per_world = {"wolves": n, "targets": m, "all": n + m}[learners]
+        self.per_world = {"wolves": n, "targets": m, "both": n + m}[learners]
         self._side = learners
         self._rewards_key = f"rewards_{learners}"
         self._offset = n if learners == "targets" else 0
         self._agents = ([f"wolf_{i}" for i in range(n)] if learners != "targets" else []) + ([f"target_{j}" for j in range(m)] if learners != "wolves" else [])
         self._views = [_SlotView(self, e, a) for e in range(self.worlds) for a in self._agents]
-        self._shared = SharedObservation(n, m, self.batch.wolf_obs_dim, self.batch.target_obs_dim) if learners == "all" else None
-        dim = {"wolves": self.batch.wolf_obs_dim, "targets": self.batch.target_obs_dim, "all": self._shared.dim if self._shared else 0}[learners]
+        self._shared = SharedObservation(n, m, self.batch.wolf_obs_dim, self.batch.target_obs_dim) if learners == "both" else None
+        dim = {"wolves": self.batch.wolf_obs_dim, "targets": self.batch.target_obs_dim, "both": self._shared.dim if self._shared else 0}[learners]
         self._next_seed: int | None = seed
         self._actions: np.ndarray | None = None
         self._last_out: Mapping[str, np.ndarray] = {}
@@ -248,7 +251,7 @@ class WolfpackVecEnv(VecEnv):
     def expert_actions(self) -> np.ndarray:
         """The scripted law's actions for every slot, [num_envs, 2] float32 (for imitation)."""
         wa, ta = self.batch.expert_actions()
-        if self._side == "all":
+        if self._side == "both":
             return self._flat(np.concatenate([wa, ta], axis=1))
         return self._flat(wa if self._side == "wolves" else ta)
 

@@ -10,10 +10,11 @@ import numpy as np
 
 from wolfpack._checks import check_flag
 from wolfpack.batch import OUTCOMES, first_cornered_step
+from wolfpack.sides import LEARNERS_ALIASES
 
 
 class SharedObservation:
-    """One observation layout for every agent (``shared_space=True``, ``learners="all"``), so
+    """One observation layout for every agent (``shared_space=True``, ``learners="both"``), so
     that one shared policy can drive both sides: D = 2 + (N+M) + max(Dw, Dt) entries —
 
     ==================  ==========================================================
@@ -46,8 +47,8 @@ class SharedObservation:
 
 def check_shared_space(shared_space: Any, learners: str) -> bool:
     shared_space = check_flag(shared_space, "shared_space")
-    if shared_space and learners != "all":
-        raise ValueError(f"shared_space=True needs learners='all' (one policy for both sides), got learners={learners!r}")
+    if shared_space and LEARNERS_ALIASES.get(learners, learners) != "both":
+        raise ValueError(f"shared_space=True needs learners='both' (one policy for both sides), got learners={learners!r}")
     return shared_space
 
 

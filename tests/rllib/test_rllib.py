@@ -43,14 +43,14 @@ def local_ray():
 
 def test_ppo_new_api_stack_two_env_runners_two_policies(local_ray):
     """One PPO iteration, 2 env runners, one RLModule per side, on RLlib's own PettingZoo
-    wrapper of ``wolfpack.parallel_env(learners="all")``."""
+    wrapper of ``wolfpack.parallel_env(learners="both")``."""
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
     from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
     from ray.tune.registry import register_env
 
-    register_env("wolfpack_test", lambda cfg: ParallelPettingZooEnv(wolfpack.parallel_env(learners="all")))
+    register_env("wolfpack_test", lambda cfg: ParallelPettingZooEnv(wolfpack.parallel_env(learners="both")))
     config = (
         PPOConfig()
         .environment("wolfpack_test")
@@ -137,7 +137,7 @@ def test_rllib_train_joins_a_cluster_started_with_ray_start(tmp_path):
 @pytest.mark.parametrize(
     "argv, fragment",
     [
-        (["--policies", "shared", "--learners", "wolves"], "--learners all"),
+        (["--policies", "shared", "--learners", "wolves"], "--learners both"),
         (["--minibatch", "9000"], "--minibatch"),
         (["--num-env-runners", "-1"], "--num-env-runners"),
         (["--resume", "/nonexistent/run"], "--resume"),

@@ -24,7 +24,7 @@ Player = "str | TrainedModel"
 def record_episode(params: dict, seed: int, *, wolves: Policy | None = None, targets: Policy | None = None) -> dict:
     """Episode ``seed`` (as in :func:`rollout`) step by step, as the trajectory arrays of
     ``wolfpack hunt --out`` (see :mod:`wolfpack.logs`) that :mod:`wolfpack.plots` draws."""
-    learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "all"}[(wolves is not None, targets is not None)]
+    learners = {(False, False): "none", (True, False): "wolves", (False, True): "targets", (True, True): "both"}[(wolves is not None, targets is not None)]
     batch = BatchEnv(params, num_envs=1, learners=learners, seed=seed, autoreset=False, threads=1)
     out = batch.reset(seed)
     states = [batch.world_state(0)]

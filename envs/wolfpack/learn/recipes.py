@@ -11,9 +11,11 @@ from typing import Any, Mapping
 import yaml
 
 from wolfpack.networks import POOLS
+from wolfpack.sides import LEARNERS as BATCH_LEARNERS
 
 RECIPES_PATH = Path(__file__).with_name("recipes.yaml")
-LEARNERS = ("wolves", "targets", "both")
+#: What the trainer can learn: the batch's learners less "none".
+LEARNERS = tuple(name for name in BATCH_LEARNERS if name != "none")
 NETWORKS = ("mlp", "entities")
 ALGOS = ("ippo", "mappo")
 # Recipe keys that are params overrides rather than hyperparameters: the learning side's reward

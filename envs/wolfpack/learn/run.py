@@ -168,7 +168,7 @@ def check_rollout_memory(worlds: list[dict], learners: str, algo: str, recipes: 
     sides = SIDES if learners == "both" else (learners,)
     needed = 0
     for params in worlds:
-        probe = BatchEnv(params, num_envs=1, learners="all" if learners == "both" else learners)
+        probe = BatchEnv(params, num_envs=1, learners=learners)
         sized = (
             rollout_bytes(
                 batch,

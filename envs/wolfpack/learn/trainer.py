@@ -88,7 +88,6 @@ class Trainer:
         if state is not None:
             self.resumes = int(state["resumes"]) + 1
             self.updates = int(state["updates"])  # before the first draw of an opponent pool
-        learners = "all" if spec.learners == "both" else spec.learners
         pool_members: list[Opponent] = []
         if opponents is None and len(spec.opponent_pool) > 1:
             opponents, pool_members = self._pool_draw()
@@ -105,7 +104,7 @@ class Trainer:
         # MAPPO's critic reads every world's state after every step: written by each world's
         # own task in the step (with_state) rather than by a serial pass after it.
         self.envs = [
-            BatchEnv(params, num_envs=e, learners=learners, seed=world_seed + offset, threads=spec.threads, opponent=opponent, with_state=spec.algo == "mappo")
+            BatchEnv(params, num_envs=e, learners=spec.learners, seed=world_seed + offset, threads=spec.threads, opponent=opponent, with_state=spec.algo == "mappo")
             for (_, _, params), e, offset in zip(groups, sizes, offsets)
         ]
         self.env = self.envs[0]

@@ -69,7 +69,7 @@ fn rollout(params: &Params, e: usize, seed: u64, threads: usize, learners: Learn
 #[test]
 fn thread_count_does_not_change_a_single_bit() {
     let p = Params::default();
-    for learners in [Learners::Wolves, Learners::Targets, Learners::All] {
+    for learners in [Learners::Wolves, Learners::Targets, Learners::Both] {
         // 700 steps: every world finishes and autoresets at least twice. 6 worlds step on the
         // caller's thread whatever the thread count (batch::INLINE_BELOW); 37 are shared out in
         // uneven chunks between the caller and 1 or 2 workers.
@@ -139,7 +139,7 @@ fn final_observations_are_zero_where_no_episode_ended_and_filled_where_one_did()
     // went on): a caller's buffers hold the last step's rows, which must not show through.
     let mut p = Params::default();
     p.world.max_steps = 3;
-    let mut env = BatchEnv::new(p, 3, Learners::All, 0, true, Some(2)).unwrap();
+    let mut env = BatchEnv::new(p, 3, Learners::Both, 0, true, Some(2)).unwrap();
     env.reset(Some(0)).unwrap();
     let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
     let (wa, ta) = ([0.3f32; 3 * 5 * 2], [0.3f32; 3 * 2]);
@@ -184,7 +184,7 @@ fn every_output_written_into_the_callers_buffers_is_the_fresh_steps() {
     // shows as NaN or all ones instead of the fresh step's value.
     let mut p = Params::default();
     p.world.max_steps = 6;
-    for (learners, autoreset) in [(Learners::Wolves, true), (Learners::Targets, false), (Learners::All, true), (Learners::None, false)] {
+    for (learners, autoreset) in [(Learners::Wolves, true), (Learners::Targets, false), (Learners::Both, true), (Learners::None, false)] {
         let mut fresh = BatchEnv::new(p.clone(), 5, learners, 2, autoreset, Some(2)).unwrap();
         let mut into = BatchEnv::new(p.clone(), 5, learners, 2, autoreset, Some(2)).unwrap();
         into.set_with_state(true);
@@ -299,7 +299,7 @@ fn expert_capture_rate(mode: ActionMode, learners: Learners, episodes: usize) ->
 
 #[test]
 fn following_the_expert_reproduces_the_scripted_laws() {
-    for (mode, learners) in [(ActionMode::Unicycle, Learners::Wolves), (ActionMode::Unicycle, Learners::Targets), (ActionMode::Velocity, Learners::Wolves), (ActionMode::Velocity, Learners::All)] {
+    for (mode, learners) in [(ActionMode::Unicycle, Learners::Wolves), (ActionMode::Unicycle, Learners::Targets), (ActionMode::Velocity, Learners::Wolves), (ActionMode::Velocity, Learners::Both)] {
         let (expert, scripted) = expert_capture_rate(mode, learners, 100);
         assert!(expert.abs_diff(scripted) <= 3, "{mode:?} {learners:?}: expert {expert} vs scripted {scripted} of 100");
     }
@@ -382,8 +382,8 @@ fn each_side_reads_its_actions_in_its_own_mode() {
     assert_eq!(run(with(v, Some(u), None), Learners::Wolves), run(with(u, None, None), Learners::Wolves));
     assert_ne!(run(with(u, Some(v), None), Learners::Wolves), run(with(u, None, None), Learners::Wolves));
     // Both sides at once, each in its own mode: the target's mode is the one that matters for it.
-    assert_eq!(run(with(u, Some(v), Some(u)), Learners::All), run(with(v, None, Some(u)), Learners::All));
-    assert_ne!(run(with(u, Some(v), Some(u)), Learners::All), run(with(u, Some(v), Some(v)), Learners::All));
+    assert_eq!(run(with(u, Some(v), Some(u)), Learners::Both), run(with(v, None, Some(u)), Learners::Both));
+    assert_ne!(run(with(u, Some(v), Some(u)), Learners::Both), run(with(u, Some(v), Some(v)), Learners::Both));
 }
 
 #[test]
@@ -398,8 +398,8 @@ fn set_drivers_before_the_first_step_is_building_the_batch_that_way() {
     let mut vel = bvc.clone();
     vel.env.wolf_action_mode = Some(ActionMode::Velocity);
     let mut swapped = BatchEnv::new(bvc, 9, Learners::Targets, 21, true, Some(2)).unwrap();
-    swapped.set_drivers(Learners::All, vel.clone()).unwrap();
-    let mut built = BatchEnv::new(vel, 9, Learners::All, 21, true, Some(2)).unwrap();
+    swapped.set_drivers(Learners::Both, vel.clone()).unwrap();
+    let mut built = BatchEnv::new(vel, 9, Learners::Both, 21, true, Some(2)).unwrap();
     assert_eq!(drive(&mut swapped, 400), drive(&mut built, 400), "wolves given to a learner");
 }
 

@@ -49,20 +49,21 @@ use crate::world::{Layout, World};
 pub enum Learners {
     Wolves,
     Targets,
-    All,
+    /// Both sides learn ("both"; the Python interface also takes "all", its first name).
+    Both,
     None,
 }
 
 impl Learners {
     /// Every value, in the order the interface lists them.
-    pub const ALL: [Self; 4] = [Self::Wolves, Self::Targets, Self::All, Self::None];
+    pub const ALL: [Self; 4] = [Self::Wolves, Self::Targets, Self::Both, Self::None];
 
     /// The name the interface uses (`learners="wolves"`).
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Wolves => "wolves",
             Self::Targets => "targets",
-            Self::All => "all",
+            Self::Both => "both",
             Self::None => "none",
         }
     }
@@ -75,11 +76,11 @@ impl Learners {
     }
 
     pub fn wolves(self) -> bool {
-        matches!(self, Self::Wolves | Self::All)
+        matches!(self, Self::Wolves | Self::Both)
     }
 
     pub fn targets(self) -> bool {
-        matches!(self, Self::Targets | Self::All)
+        matches!(self, Self::Targets | Self::Both)
     }
 }
 
@@ -559,7 +560,7 @@ mod tests {
         p.obstacles.moving_polygons = 8;
         p.env.lidar.range = 4.0;
         let (e, n, m) = (4, p.world.wolves, p.world.targets);
-        let mut env = BatchEnv::new(p.clone(), e, Learners::All, 9, true, Some(1)).unwrap();
+        let mut env = BatchEnv::new(p.clone(), e, Learners::Both, 9, true, Some(1)).unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         let (dw, dt) = (env.wolf_obs_dim(), env.target_obs_dim());
         let (mut stale_seen, mut checked) = (0, 0);

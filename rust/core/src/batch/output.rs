@@ -515,7 +515,7 @@ mod tests {
 
     #[test]
     fn the_specs_and_the_buffers_list_the_outputs_in_one_order() {
-        let env = BatchEnv::new(crate::Params::default(), 2, super::super::Learners::All, 0, true, Some(1)).unwrap();
+        let env = BatchEnv::new(crate::Params::default(), 2, super::super::Learners::Both, 0, true, Some(1)).unwrap();
         let names = StepOutput::default().buffers().lens().map(|(name, _)| name);
         assert_eq!(env.output_specs().map(|s| s.name), names);
         let mut out = env.new_outputs();
