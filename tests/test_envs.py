@@ -26,12 +26,12 @@ LAYOUT = {
 # --- conformance ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+@pytest.mark.parametrize("learners", ["wolves", "targets", "both"])
 def test_pettingzoo_parallel_api(learners):
     parallel_api_test(wolfpack.parallel_env(learners=learners), num_cycles=400)
 
 
-@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+@pytest.mark.parametrize("learners", ["wolves", "targets", "both"])
 def test_pettingzoo_seed_test(learners):
     parallel_seed_test(lambda: wolfpack.parallel_env(learners=learners), num_cycles=50)
 

@@ -103,8 +103,8 @@ def simulate(params: dict, seed: int, learners: str) -> None:
     border = params["world"]["border"]
     env.reset(seed)
     for _ in range(30):  # past max_steps (<= 25): autoreset is exercised
-        wa = rng.uniform(-1, 1, (2, n, 2)).astype(np.float32) if learners in ("wolves", "all") else None
-        ta = rng.uniform(-1, 1, (2, m, 2)).astype(np.float32) if learners in ("targets", "all") else None
+        wa = rng.uniform(-1, 1, (2, n, 2)).astype(np.float32) if learners in ("wolves", "both") else None
+        ta = rng.uniform(-1, 1, (2, m, 2)).astype(np.float32) if learners in ("targets", "both") else None
         out = env.step(wa, ta)
         for key, value in out.items():
             if np.asarray(value).dtype.kind == "f":
@@ -116,7 +116,7 @@ def simulate(params: dict, seed: int, learners: str) -> None:
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(scenarios(), st.integers(0, 2**32), st.sampled_from(["wolves", "targets", "all", "none"]))
+@given(scenarios(), st.integers(0, 2**32), st.sampled_from(["wolves", "targets", "both", "none"]))
 def test_every_key_is_refused_by_name_or_simulates_finitely_inside_the_arena(overrides, seed, learners):
     bad = overrides.pop("_invalid", None)
     try:

@@ -41,17 +41,17 @@ def poison(out: dict) -> None:
 
 def random_actions(rng, batch, learners):
     shapes = {"wolves": (batch.num_envs, batch.n_wolves, 2), "targets": (batch.num_envs, batch.n_targets, 2)}
-    acts = {side: rng.uniform(-1, 1, shape).astype(np.float32) for side, shape in shapes.items() if learners in (side, "all")}
+    acts = {side: rng.uniform(-1, 1, shape).astype(np.float32) for side, shape in shapes.items() if learners in (side, "both")}
     return acts.get("wolves"), acts.get("targets")
 
 
-@pytest.mark.parametrize("learners", ["wolves", "targets", "all", "none"])
+@pytest.mark.parametrize("learners", ["wolves", "targets", "both", "none"])
 @pytest.mark.parametrize("autoreset", [True, False])
 def test_step_into_the_callers_buffers_equals_a_step_into_new_ones(learners, autoreset):
     """Over episodes that end (by timeout and collision), with and without autoreset and the
     state: every output written into poisoned buffers equals the fresh step's, and the dict
     returned holds the caller's own arrays."""
-    kwargs = dict(num_envs=3, learners=learners, seed=4, autoreset=autoreset, with_state=learners == "all", **{"world.max_steps": 7})
+    kwargs = dict(num_envs=3, learners=learners, seed=4, autoreset=autoreset, with_state=learners == "both", **{"world.max_steps": 7})
     fresh, into = wolfpack.BatchEnv(**kwargs), wolfpack.BatchEnv(**kwargs)
     assert_same_output(fresh.reset(), into.reset(), "reset")
     out = into.new_outputs()
@@ -83,7 +83,7 @@ def test_steps_without_out_return_new_arrays_and_with_out_reuse_the_callers():
     assert d["obs_wolves"] is out["obs_wolves"] and not np.array_equal(out["obs_wolves"], before)
 
 
-@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+@pytest.mark.parametrize("learners", ["wolves", "targets", "both"])
 def test_actions_not_float32_c_contiguous_are_converted(learners):
     """float64, Fortran-ordered and nested-list actions give what float32 C-contiguous ones give."""
     exact, other = (wolfpack.BatchEnv(num_envs=3, learners=learners, seed=4, **{"world.max_steps": 7}) for _ in range(2))
@@ -174,12 +174,12 @@ def test_step_into_buffers_with_a_learned_opponent():
         assert_same_output(got, want, f"step {t}")
 
 
-@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+@pytest.mark.parametrize("learners", ["wolves", "targets", "both"])
 def test_vec_env_step_is_the_batch_step_in_slots(learners):
     """The VecEnv's observations, rewards, dones, infos (terminal observations included) and
     step_infos are a twin BatchEnv's step laid out per slot, in new arrays every step, also for
     float64 and non-contiguous actions, over episodes that end by timeout and by collision."""
-    kwargs = dict(num_envs=3, learners=learners, seed=11, shared_space=learners == "all", **{"world.max_steps": 9})
+    kwargs = dict(num_envs=3, learners=learners, seed=11, shared_space=learners == "both", **{"world.max_steps": 9})
     venv, twin = wolfpack.make_vec_env(**kwargs), wolfpack.make_vec_env(**kwargs)
     np.testing.assert_array_equal(venv.reset(), twin.reset())
     batch, per, n = twin.batch, venv.per_world, venv.batch.n_wolves
@@ -191,7 +191,7 @@ def test_vec_env_step_is_the_batch_step_in_slots(learners):
         a = a if t % 3 == 0 else np.asfortranarray(a) if t % 3 == 1 else a.astype(np.float32)
         obs, rewards, dones, infos = venv.step(a)
         w = a.reshape(venv.num_envs // per, per, 2)
-        out = batch.step(w if learners == "wolves" else w[:, :n] if learners == "all" else None, w if learners == "targets" else w[:, n:] if learners == "all" else None)
+        out = batch.step(w if learners == "wolves" else w[:, :n] if learners == "both" else None, w if learners == "targets" else w[:, n:] if learners == "both" else None)
         assert_same_array(obs, twin._obs(out), "obs")
         side_rewards = [out["rewards_wolves"]] * (learners != "targets") + [out["rewards_targets"]] * (learners != "wolves")
         assert_same_array(rewards, np.concatenate(side_rewards, axis=1).reshape(-1), "rewards")
@@ -216,15 +216,15 @@ def test_vec_env_step_is_the_batch_step_in_slots(learners):
     assert not np.shares_memory(seen[-1][0], seen[-2][0])
 
 
-@pytest.mark.parametrize("learners", ["wolves", "all"])
+@pytest.mark.parametrize("learners", ["wolves", "both"])
 def test_vec_env_non_finite_action_names_the_slot_and_moves_nothing(learners):
-    venv = wolfpack.make_vec_env(num_envs=2, learners=learners, shared_space=learners == "all")
+    venv = wolfpack.make_vec_env(num_envs=2, learners=learners, shared_space=learners == "both")
     venv.reset()
     per = venv.num_envs // 2
     for dtype in (np.float32, np.float64):
         bad = np.zeros((venv.num_envs, 2), dtype)
         bad[per + per - 1, 0] = np.inf  # the last slot of world 1: a target with learners="both"
-        agent = "target_0" if learners == "all" else "wolf_4"
+        agent = "target_0" if learners == "both" else "wolf_4"
         with pytest.raises(ValueError, match=f"slot {2 * per - 1} \\({agent} in world 1\\) is not finite"):
             venv.step(bad)
         assert [venv.batch.world_state(e)["step"] for e in range(2)] == [0, 0]

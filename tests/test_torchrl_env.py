@@ -18,11 +18,11 @@ def fixed_actions(rng: np.random.Generator, e: int, k: int) -> np.ndarray:
     return rng.uniform(-1, 1, (e, k, 2)).astype(np.float32)
 
 
-@pytest.mark.parametrize("learners", ["wolves", "targets", "all"])
+@pytest.mark.parametrize("learners", ["wolves", "targets", "both"])
 def test_specs_pass_torchrls_check_for_every_learning_side(learners):
     env = WolfpackEnv(num_envs=4, learners=learners, **{"world.max_steps": 6})
     check_env_specs(env)  # steps through an episode end and its autoreset
-    groups = {"wolves": ("wolves",), "targets": ("targets",), "all": ("wolves", "targets")}[learners]
+    groups = {"wolves": ("wolves",), "targets": ("targets",), "both": ("wolves", "targets")}[learners]
     assert env.groups == groups
     td = env.rollout(20, break_when_any_done=False)
     assert td.batch_size == (4, 20)
