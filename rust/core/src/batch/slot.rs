@@ -24,18 +24,20 @@ pub(super) struct Slot {
 }
 
 impl Slot {
-    /// Starts episode `episode` of this slot's world in place: the slot `env_slot` makes for
-    /// it (the observer's scratch aside, which holds nothing from one use to the next), in this
-    /// slot's own allocations ([`World::adopt`]).
+    /// Starts episode `episode` of this slot's world in place ([`World::respawn`]): the slot
+    /// `env_slot` would make for it (the observer's scratch aside, which holds nothing from one
+    /// use to the next), in this slot's own allocations.
     pub(super) fn respawn(&mut self, params: &Arc<Params>, episode: u64, track: bool) -> Result<()> {
-        let Slot { world, seed: _, episode, rewards: _, observer: _, wolf_cmds, target_cmds } = env_slot(params, self.seed, episode, None)?;
-        self.world.adopt(world);
+        self.world.respawn(params.clone(), self.seed, episode)?;
         self.world.track_laws = track;
         self.episode = episode;
         // RewardState::new is reset on a default state: the same lists, kept.
         self.rewards.reset(&self.world);
-        self.wolf_cmds.clone_from(&wolf_cmds);
-        self.target_cmds.clone_from(&target_cmds);
+        let (n, m) = (self.world.n_wolves(), self.world.n_targets());
+        self.wolf_cmds.clear();
+        self.wolf_cmds.resize(n, Command::default());
+        self.target_cmds.clear();
+        self.target_cmds.resize(m, Command::default());
         Ok(())
     }
 

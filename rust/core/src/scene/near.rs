@@ -39,11 +39,11 @@ pub fn cull_distance(p: &Params) -> f64 {
 }
 
 impl Neighbours {
-    /// Becomes `fresh` in this one's lists ([`crate::world::World::adopt`]).
-    pub(crate) fn adopt(&mut self, fresh: Neighbours) {
-        self.start.clone_from(&fresh.start);
-        self.index.clone_from(&fresh.index);
-        self.reach2.clone_from(&fresh.reach2);
+    /// No lists (a new episode's, until its first build), keeping the allocations.
+    pub(crate) fn clear(&mut self) {
+        self.start.clear();
+        self.index.clear();
+        self.reach2.clear();
     }
 
     /// Rebuilds the lists for agents at `points` with cull distance `cut` ([`cull_distance`]).

@@ -67,7 +67,7 @@ impl Obstacle {
     }
 
     /// Becomes `fresh`, keeping this obstacle's vertex lists where they are large enough
-    /// ([`crate::world::World::adopt`]).
+    /// (a world's respawn, [`crate::world::World::respawn`]).
     pub(crate) fn adopt(&mut self, fresh: Obstacle) {
         let Obstacle { kind, center, radius, angle, local, vertices, placed } = fresh;
         (self.kind, self.center, self.radius, self.angle, self.placed) = (kind, center, radius, angle, placed);

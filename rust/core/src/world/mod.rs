@@ -191,28 +191,26 @@ impl World {
     }
 
     fn assemble(params: Arc<Params>, seed: u64, episode: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
-        let (n, m) = (wolves.len(), targets.len());
-        let wolf_law = params.policies.wolves;
         let mut w = Self {
-            params,
+            params: params.clone(),
             t: 0,
-            wolves,
-            targets,
-            obstacles,
-            wolf_target: vec![0; n],
-            wolf_senses: vec![false; n],
-            target_seen_at: vec![None; m],
-            target_last_sighting: vec![None; m],
-            target_captured: vec![false; m],
-            target_capture_step: vec![None; m],
-            target_cornered_step: vec![None; m],
-            target_ended_cornered: vec![false; m],
-            wolf_memory: vec![WolfMemory::new(wolf_law); n],
-            target_memory: vec![TargetMemory::default(); m],
-            interaction: vec![0; (n + m) * (n + m)],
-            wolf_mode: vec![LawMode::None; n],
-            target_mode: vec![LawMode::None; m],
-            collisions: vec![0; n + m],
+            wolves: Vec::new(),
+            targets: Vec::new(),
+            obstacles: Vec::new(),
+            wolf_target: Vec::new(),
+            wolf_senses: Vec::new(),
+            target_seen_at: Vec::new(),
+            target_last_sighting: Vec::new(),
+            target_captured: Vec::new(),
+            target_capture_step: Vec::new(),
+            target_cornered_step: Vec::new(),
+            target_ended_cornered: Vec::new(),
+            wolf_memory: Vec::new(),
+            target_memory: Vec::new(),
+            interaction: Vec::new(),
+            wolf_mode: Vec::new(),
+            target_mode: Vec::new(),
+            collisions: Vec::new(),
             outcome: Outcome::Running,
             track_laws: false,
             lazy_obstacles: false,
@@ -220,63 +218,39 @@ impl World {
             rng_motion: stream(seed, episode, STREAM_MOTION),
             rng_policy: stream(seed, episode, STREAM_POLICY),
             rng_sensing: stream(seed, episode, STREAM_SENSING),
-            wolf_cmds: vec![Command::default(); n],
-            target_cmds: vec![Command::default(); m],
+            wolf_cmds: Vec::new(),
+            target_cmds: Vec::new(),
             wolf_bodies: Bodies::default(),
             target_bodies: Bodies::default(),
-            scratch_row: vec![0; n + m],
+            scratch_row: Vec::new(),
             near: Neighbours::default(),
         };
-        w.assign_targets();
-        w.note_sightings();
+        w.restart(params, seed, episode, wolves, targets, obstacles);
         w
     }
 
-    /// Becomes `fresh` (a world just spawned), keeping this world's own allocations wherever
-    /// they are large enough: the same state as `*self = fresh`, field for field (a test
-    /// checks), but the lists stay where they were. A batch respawns its worlds this way:
-    /// with `*self = fresh`, each autoreset left the world's ≈ 50 lists at whatever addresses
-    /// the allocator had free, scattered over the heap, and a batch of 8,192 that had run a
-    /// few hundred steps stepped ≈ 200 k env-steps/s on one thread against ≈ 245 k when freshly
-    /// built (≈ 225 k with `adopt`; BENCHMARKS.md, "Optimisations").
-    pub(crate) fn adopt(&mut self, fresh: World) {
-        // Destructured, so that a field added to World does not compile until it is handled.
-        let World {
-            params,
-            t,
-            wolves,
-            targets,
-            obstacles,
-            wolf_target,
-            wolf_senses,
-            target_seen_at,
-            target_last_sighting,
-            target_captured,
-            target_capture_step,
-            target_cornered_step,
-            target_ended_cornered,
-            wolf_memory,
-            target_memory,
-            interaction,
-            wolf_mode,
-            target_mode,
-            collisions,
-            outcome,
-            track_laws,
-            lazy_obstacles,
-            fault,
-            rng_motion,
-            rng_policy,
-            rng_sensing,
-            wolf_cmds,
-            target_cmds,
-            wolf_bodies,
-            target_bodies,
-            scratch_row,
-            near,
-        } = fresh;
+    /// Starts episode `episode` of the world seeded `seed` in this world's own lists: the
+    /// state [`World::new_episode`] would build, field for field (a test checks), with the
+    /// settings its owner chose (`track_laws`, `lazy_obstacles`) kept. A batch respawns its
+    /// worlds this way, at every autoreset. Building a fresh world instead put the world's ≈ 50
+    /// lists wherever the allocator had room, scattered over the heap: a batch of 8,192 that had
+    /// run a few hundred steps stepped ≈ 200 k env-steps/s on one thread against ≈ 245 k when
+    /// freshly built (BENCHMARKS.md, "Optimisations"). On a spawn error the world is untouched.
+    pub(crate) fn respawn(&mut self, params: Arc<Params>, seed: u64, episode: u64) -> Result<()> {
+        let mut rng = stream(seed, episode, STREAM_SPAWN);
+        let (wolves, targets, obstacles) = spawn::spawn(&params, &mut rng)?;
+        self.restart(params, seed, episode, wolves, targets, obstacles);
+        Ok(())
+    }
+
+    /// The one definition of a world's first state (for [`World::assemble`] and
+    /// [`World::respawn`]): the spawned agents and obstacles, every other list refilled to its
+    /// start, the episode's random streams.
+    fn restart(&mut self, params: Arc<Params>, seed: u64, episode: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) {
+        let (n, m) = (wolves.len(), targets.len());
+        let wolf_law = params.policies.wolves;
         self.params = params;
-        self.t = t;
+        self.t = 0;
         self.wolves.clone_from(&wolves);
         self.targets.clone_from(&targets);
         self.obstacles.truncate(obstacles.len());
@@ -286,33 +260,33 @@ impl World {
                 None => self.obstacles.push(o),
             }
         }
-        self.wolf_target.clone_from(&wolf_target);
-        self.wolf_senses.clone_from(&wolf_senses);
-        self.target_seen_at.clone_from(&target_seen_at);
-        self.target_last_sighting.clone_from(&target_last_sighting);
-        self.target_captured.clone_from(&target_captured);
-        self.target_capture_step.clone_from(&target_capture_step);
-        self.target_cornered_step.clone_from(&target_cornered_step);
-        self.target_ended_cornered.clone_from(&target_ended_cornered);
-        self.wolf_memory.clone_from(&wolf_memory);
-        self.target_memory.clone_from(&target_memory);
-        self.interaction.clone_from(&interaction);
-        self.wolf_mode.clone_from(&wolf_mode);
-        self.target_mode.clone_from(&target_mode);
-        self.collisions.clone_from(&collisions);
-        self.outcome = outcome;
-        self.track_laws = track_laws;
-        self.lazy_obstacles = lazy_obstacles;
-        self.fault = fault;
-        self.rng_motion = rng_motion;
-        self.rng_policy = rng_policy;
-        self.rng_sensing = rng_sensing;
-        self.wolf_cmds.clone_from(&wolf_cmds);
-        self.target_cmds.clone_from(&target_cmds);
-        self.wolf_bodies.adopt(wolf_bodies);
-        self.target_bodies.adopt(target_bodies);
-        self.scratch_row.clone_from(&scratch_row);
-        self.near.adopt(near);
+        refill(&mut self.wolf_target, n, 0);
+        refill(&mut self.wolf_senses, n, false);
+        refill(&mut self.target_seen_at, m, None);
+        refill(&mut self.target_last_sighting, m, None);
+        refill(&mut self.target_captured, m, false);
+        refill(&mut self.target_capture_step, m, None);
+        refill(&mut self.target_cornered_step, m, None);
+        refill(&mut self.target_ended_cornered, m, false);
+        refill(&mut self.wolf_memory, n, WolfMemory::new(wolf_law));
+        refill(&mut self.target_memory, m, TargetMemory::default());
+        refill(&mut self.interaction, (n + m) * (n + m), 0);
+        refill(&mut self.wolf_mode, n, LawMode::None);
+        refill(&mut self.target_mode, m, LawMode::None);
+        refill(&mut self.collisions, n + m, 0);
+        self.outcome = Outcome::Running;
+        self.fault = None;
+        self.rng_motion = stream(seed, episode, STREAM_MOTION);
+        self.rng_policy = stream(seed, episode, STREAM_POLICY);
+        self.rng_sensing = stream(seed, episode, STREAM_SENSING);
+        refill(&mut self.wolf_cmds, n, Command::default());
+        refill(&mut self.target_cmds, m, Command::default());
+        self.wolf_bodies.clear();
+        self.target_bodies.clear();
+        refill(&mut self.scratch_row, n + m, 0);
+        self.near.clear();
+        self.assign_targets();
+        self.note_sightings();
     }
 
     /// The generator of agent `agent`'s observation noise at this step (wolves 0..N, then
@@ -456,10 +430,10 @@ impl Bodies {
         }
     }
 
-    /// Becomes `fresh` in this one's lists ([`World::adopt`]).
-    fn adopt(&mut self, fresh: Bodies) {
-        self.tris.clone_from(&fresh.tris);
-        self.poses.clone_from(&fresh.poses);
+    /// No bodies (a new episode's, until its first sync), keeping the lists.
+    fn clear(&mut self) {
+        self.tris.clear();
+        self.poses.clear();
     }
 
     /// `unit(θ)` of agent `i` if the body kept for it is that of `a`'s pose.
@@ -508,15 +482,21 @@ impl Params {
     }
 }
 
+/// `list` as `vec![value; len]`, in its own allocation where that is large enough.
+fn refill<T: Clone>(list: &mut Vec<T>, len: usize, value: T) {
+    list.clear();
+    list.resize(len, value);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// `adopt` leaves a world in the very state of the fresh one, whatever it held before
+    /// `respawn` leaves a world in the very state of a fresh one, whatever it held before
     /// (longer or shorter lists, other polygons, a lazy world partly placed): the same fields,
     /// the same random streams, and the same trajectory afterwards.
     #[test]
-    fn adopting_a_fresh_world_is_becoming_it() {
+    fn respawning_a_world_is_becoming_a_fresh_one() {
         let mut params = Params::default();
         // Varied list lengths: fewer agents and obstacles in one episode than the next.
         let small = {
@@ -527,17 +507,19 @@ mod tests {
             Arc::new(p)
         };
         params.world.wolves = 6;
+        params.env.last_sighting = true; // the first sightings are part of the first state
         let large = Arc::new(params);
         for (k, (before, after)) in [(small.clone(), large.clone()), (large.clone(), small.clone()), (large.clone(), large)].into_iter().enumerate() {
             for seed in 0..6u64 {
                 let mut old = World::new_episode(before.clone(), 100 + seed, 0).unwrap();
                 old.lazy_obstacles = seed % 2 == 0;
+                old.track_laws = seed % 3 == 0;
                 for _ in 0..(7 * seed as usize) {
                     old.step();
                 }
-                let fresh = World::new_episode(after.clone(), seed, 3).unwrap();
-                let mut want = fresh.clone();
-                old.adopt(fresh);
+                let mut want = World::new_episode(after.clone(), seed, 3).unwrap();
+                (want.lazy_obstacles, want.track_laws) = (old.lazy_obstacles, old.track_laws);
+                old.respawn(after.clone(), seed, 3).unwrap();
                 assert_eq!(format!("{old:?}"), format!("{want:?}"), "case {k}, seed {seed}: state");
                 assert!(old.rng_motion == want.rng_motion && old.rng_policy == want.rng_policy, "case {k}, seed {seed}: streams");
                 for t in 0..40 {
