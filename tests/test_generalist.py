@@ -279,6 +279,7 @@ def test_imitation_warms_up_a_multi_task_pack_on_every_task(tmp_path):
     assert summary["agent_steps"] >= 1_000
 
 
+@pytest.mark.slow  # two runs of the report script over every task: 18 s
 def test_the_generalist_report_scores_every_run_and_draws_curves_only_from_multi_task_runs(multi_run, tmp_path):
     """training/generalist.py over a multi-task run and a run of one task (as a fine-tuning
     league's final pack is): both scored on every task; the per-task curves need every run to
