@@ -232,10 +232,10 @@ impl World {
     /// Starts episode `episode` of the world seeded `seed` in this world's own lists: the
     /// state [`World::new_episode`] would build, field for field (a test checks), with the
     /// settings its owner chose (`track_laws`, `lazy_obstacles`) kept. A batch respawns its
-    /// worlds this way, at every autoreset. Building a fresh world instead put the world's ≈ 50
-    /// lists wherever the allocator had room, scattered over the heap: a batch of 8,192 that had
-    /// run a few hundred steps stepped ≈ 200 k env-steps/s on one thread against ≈ 245 k when
-    /// freshly built (BENCHMARKS.md, "Optimisations"). On a spawn error the world is untouched.
+    /// worlds this way, at every autoreset: a fresh world's ≈ 50 lists would land wherever the
+    /// allocator had room, scattered over the heap, and a batch that had run a few hundred steps
+    /// stepped markedly slower than a freshly built one (BENCHMARKS.md, "Optimisations"). On a
+    /// spawn error the world is untouched.
     pub(crate) fn respawn(&mut self, params: Arc<Params>, seed: u64, episode: u64) -> Result<()> {
         let mut rng = stream(seed, episode, STREAM_SPAWN);
         let (wolves, targets, obstacles) = spawn::spawn(&params, &mut rng)?;
