@@ -259,6 +259,7 @@ class WolfpackEnv(EnvBase):
             source[side] = TensorDict._new_unsafe(group, batch_size=(e, k))
         # Without the per-entry checks of TensorDict(...): every entry is a CPU tensor of the
         # spec's shape and dtype (check_env_specs in the tests), and at E = 256 the checks cost
-        # ≈ 40 µs of a step's ≈ 1 ms. TorchRL's own envs (gym_like, brax) build outputs this way.
+        # a few per cent of a step (BENCHMARKS.md, "The TorchRL view"). TorchRL's own envs
+        # (gym_like, brax) build outputs this way.
         td = TensorDict._new_unsafe(source, batch_size=(e,))
         return td if self.device == torch.device("cpu") else td.to(self.device)

@@ -281,8 +281,8 @@ class WolfpackVecEnv(VecEnv):
         per, lo = self.per_world, self._offset
         n = self.batch.n_wolves
         # Each ended world's own rows: converting the rows of all ended worlds together (one
-        # fancy index and .tolist() per array) cost ≈ 12 µs more per step at 1 to 12 ended
-        # worlds, and no less at 100.
+        # fancy index and .tolist() per array) cost more per step, at a few ended worlds and
+        # still at 100 (BENCHMARKS.md, "Optimisations").
         ended_infos = [world_agent_infos(step_infos, e, n, lo, lo + per) for e in ended]
         for e, slots in zip(ended, ended_infos):
             time_limit = bool(truncated[e] and not terminated[e])

@@ -45,10 +45,9 @@ def prefer_passive_omp() -> None:
     Spinning OpenMP workers wait for one another at the end of every parallel region; beside
     another busy process (the usual case on a small machine: a second run, an evaluation) a
     descheduled worker holds the others for a scheduler slice per region. On the 2-core VM,
-    `wolfpack train --side wolves`, 2 M agent-steps, twice each: beside one busy process 22–23 k
-    agent-steps/s spinning, 49–51 k passive; beside two, 2.9 k against 41.5 k; quiet, 73–77 k
-    against 67–79 k (no difference beyond noise). BENCHMARKS.md, "Threads beside a busy
-    process"."""
+    `wolfpack train --side wolves` with passive waits ran twice as fast beside one busy process
+    and over ten times as fast beside two, and no slower quiet (BENCHMARKS.md, "Threads beside a
+    busy process")."""
     if "torch" not in sys.modules:
         os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 

@@ -1,10 +1,10 @@
 //! A batch's own worker threads: a crew that runs one job at a time on the calling thread and
 //! whichever members join it in time.
 //!
-//! Why not rayon's pool for the batch's steps: a step of 64 worlds on two threads is ≈ 110 µs,
-//! and handing it to rayon cost ≈ 15 % of that on this 2-core VM (measured with
-//! `examples/batch_threads` against two separate 32-world batches stepped in lockstep by two
-//! spinning threads: 560 k against 660 k env-steps/s). Rayon hands a scope's jobs over its
+//! Why not rayon's pool for the batch's steps: a step of 64 worlds on two threads lasts about a
+//! tenth of a millisecond, and handing it to rayon cost a clear share of that on a 2-core VM
+//! (the batch on rayon against two separate 32-world batches stepped in lockstep by two
+//! spinning threads: BENCHMARKS.md, "Optimisations"). Rayon hands a scope's jobs over its
 //! global queue and its sleep module (a worker between jobs yields to the kernel and sleeps;
 //! waking it is a futex call and a vCPU to schedule), and the batch had to spawn a job per
 //! step just to keep its workers awake between steps. A crew member waits for its next job on
@@ -41,19 +41,19 @@ use std::time::{Duration, Instant};
 /// How long a member keeps waiting, awake, for the next job after finishing one: none. A
 /// member that waits awake (spinning) joins the next step tens of µs sooner than a parked one
 /// is woken, but beside another busy process it is a third thread on two cores, taking time
-/// from the caller and from that process. Measured on the 2-core VM with
-/// `benchmarks/under_load.py` (two threads against one, E = 8 / 64 / 1,024): awake for 300 µs,
-/// 1.56 / 1.96 / 2.25× quiet but 0.84 / 0.82 / 1.01× beside one busy process; parked at once,
-/// 0.95 / 1.88 / 2.08× quiet and 0.97 / 1.12 / 1.17× beside one (BENCHMARKS.md, "Threads beside
-/// a busy process"). Tests give members a long wait to reach the awake paths.
+/// from the caller and from that process. On the 2-core VM (`benchmarks/under_load.py`, two
+/// threads against one) waiting awake was faster quiet, by much only at small batches, but left
+/// two threads no faster than one beside a busy process, where members that park at once keep
+/// two about as fast as one or faster (BENCHMARKS.md, "Threads beside a busy process"). Tests
+/// give members a long wait to reach the awake paths.
 pub const LINGER: Duration = Duration::ZERO;
 
 /// Jobs started by any crew of this process. A member waiting awake for its own crew's next
 /// job stops waiting (parks) as soon as another crew starts one: two batches stepped in turn
 /// (a training and an evaluation batch, two sides of a league) would otherwise each leave a
 /// member spinning through the other's whole step, on the core that batch's own member needs
-/// (on 2 cores, two E = 64 batches stepped in turn ran at 0.2 M env-steps/s against 0.6 M for
-/// one).
+/// (on 2 cores, two E = 64 batches stepped in turn ran at a third of one batch's rate:
+/// BENCHMARKS.md, "Optimisations").
 static JOBS_STARTED: AtomicUsize = AtomicUsize::new(0);
 
 /// The job of the moment: member `w` calls it with `w + 1` (the caller takes 0). Its lifetime

@@ -229,10 +229,11 @@ pub fn run_episodes_until(params: &Params, seed: u64, first: u64, count: u64, la
 }
 
 /// A pool of `t` threads, started on first use and kept: `wolfpack hunt` calls the runner once
-/// per chunk of episodes, and starting the threads anew every time cost ≈ 0.1 ms per thread
-/// and call. At most one pool per thread count (≤ [`MAX_THREADS`] of them). The pools belong
-/// to the process that started them: a forked child (Python's multiprocessing) has none of
-/// their threads, so it starts its own instead of waiting forever on the parent's.
+/// per chunk of episodes, and starting the threads anew on every call is a cost per thread and
+/// call that a kept pool pays once (BENCHMARKS.md, "Optimisations"). At most one pool per
+/// thread count (≤ [`MAX_THREADS`] of them). The pools belong to the process that started
+/// them: a forked child (Python's multiprocessing) has none of their threads, so it starts its
+/// own instead of waiting forever on the parent's.
 fn pool(t: usize) -> Result<Arc<rayon::ThreadPool>> {
     type Pools = (u32, BTreeMap<usize, Arc<rayon::ThreadPool>>);
     static POOLS: Mutex<Pools> = Mutex::new((0, BTreeMap::new()));

@@ -89,8 +89,9 @@ impl Learners {
 pub const INLINE_BELOW: usize = 8;
 
 /// Most worlds in one claim of a shared step ([`BatchEnv::chunk`]): at large batches a claim
-/// (an atomic update, ≈ 20 ns unless another thread is stealing from the same run) every 16
-/// worlds is free, and a thread that runs out steals at most ≈ 50 µs of work at a time.
+/// (one atomic update, nanoseconds unless another thread is stealing from the same run) every
+/// 16 worlds is free next to their steps, and a thread that runs out steals at most 16 worlds'
+/// work at a time (BENCHMARKS.md, "Optimisations").
 const MAX_CHUNK: usize = 16;
 
 /// Worlds per thread from which a step asks the CPU to load each next world's memory while it
@@ -169,8 +170,9 @@ impl BatchEnv {
     }
 
     /// Whether a step runs on the caller's thread: with one thread, and for batches too small
-    /// to share (waking the crew and handing work back costs ≈ 10–20 µs, a world's step with
-    /// observations ≈ 5–10 µs: below [`INLINE_BELOW`] worlds more threads only make it slower).
+    /// to share (waking the crew and handing work back costs about two worlds' steps with
+    /// observations: below [`INLINE_BELOW`] worlds more threads only make it slower;
+    /// BENCHMARKS.md, "Optimisations").
     fn steps_inline(&self) -> bool {
         self.participants() == 1 || self.slots.len() < INLINE_BELOW
     }
@@ -195,8 +197,8 @@ impl BatchEnv {
     /// about a world's step of each other, and a thread that runs out moves as few worlds off
     /// the other's core as it can (a world stolen is a world whose ≈ 9 KB of state crosses
     /// between the cores' caches, there and back the next step). Against 8 worlds per claim
-    /// at E = 64 on 2 threads: 533 → 600 k env-steps/s with the crew (`examples/batch_threads`,
-    /// medians of 7 interleaved runs).
+    /// it steps E = 64 on 2 threads about an eighth faster with the crew (BENCHMARKS.md,
+    /// "Optimisations").
     fn chunk(&self) -> usize {
         (self.slots.len() / (32 * self.participants())).clamp(1, MAX_CHUNK)
     }

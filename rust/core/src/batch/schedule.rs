@@ -9,9 +9,9 @@ use crate::crew::Crew;
 use crate::error::{Error, Result};
 
 /// Below this many items a job does not wake the crew's parked members ([`Crew::run_with`]):
-/// 32 worlds are ≈ 150 µs of one thread's stepping, several times a member's wake-up on a VM
+/// stepping 32 worlds takes one thread several times as long as a member takes to wake on a VM
 /// (tens of µs), so a member woken for them still finds worlds to step; fewer are done, or
-/// nearly, by the time it comes.
+/// nearly, by the time it comes (BENCHMARKS.md, "Optimisations").
 pub(super) const WAKE_FROM: usize = 32;
 
 /// Maps `f` over `items` on `participants` threads (see [`par_for`]); the results come back
@@ -48,18 +48,19 @@ pub(super) fn share<T: Send, R: Send>(crew: Option<&mut Crew>, participants: usi
 /// chunk of the participant with the most left ([`HomeRuns`], lock-free). So a world is stepped
 /// by the same thread step after step and its memory stays in that core's cache, while a slow
 /// world (one that spawns its next episode) is still balanced out. (With one shared queue the
-/// worlds moved between the cores every step: two threads stepped 64 worlds 1.4× as fast as
-/// one, against 2.0× for two separate batches of 32.)
+/// worlds moved between the cores every step, and two threads stepped 64 worlds well short of
+/// twice as fast as one, where two separate batches of 32 reached twice: BENCHMARKS.md,
+/// "Optimisations".)
 ///
 /// Only indices are handed out: each task finds its world and its pieces of the outputs from
 /// the index ([`Disjoint`], [`OutPieces`]). Building a list of per-world items and output
-/// slices first was serial work on the caller, ≈ 6 % of a two-thread step at E = 8192.
+/// slices first was serial work on the caller, a visible share of a two-thread step at large E.
 ///
 /// Why not `pool.install(par_iter)`: the caller (Python's thread) then only waits, and every
-/// step pays for waking all workers and for waking the caller again (≈ 40–80 µs on this VM,
-/// as much as 16 worlds' work); here the caller starts at once and the crew's members join as
-/// they wake, or not at all for fewer than [`WAKE_FROM`] items (see [`crate::crew`] for why
-/// not a rayon scope).
+/// step pays for waking all workers and for waking the caller again (tens of µs on a VM, as
+/// much as stepping a full chunk of worlds: BENCHMARKS.md, "Optimisations"); here the caller
+/// starts at once and the crew's members join as they wake, or not at all for fewer than
+/// [`WAKE_FROM`] items (see [`crate::crew`] for why not a rayon scope).
 pub(super) fn par_for(crew: Option<&mut Crew>, participants: usize, n: usize, chunk: usize, ahead: impl Fn(usize) + Sync, f: impl Fn(usize) + Sync) {
     let crew = match crew {
         Some(c) if participants > 1 && n > 0 => c,
