@@ -1,5 +1,5 @@
 //! Throughput of scripted stepping (BENCHMARKS.md; run with
-//! `cargo bench -p wolfpack-core --bench step -- --measurement-time 5`).
+//! `cargo bench -p wolfpack-bench --bench step -- --measurement-time 5`).
 //!
 //! - `step/documented`: one `World::step()` of the documented scenario (`Params::default()`:
 //!   5 seed000 wolves, 1 escaping target, 12 obstacles, 20 m arena). Criterion reports time per
