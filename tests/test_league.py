@@ -149,10 +149,14 @@ def test_a_stopped_league_resumes_and_ends_as_an_uninterrupted_one(tiny_league, 
     payoffs = json.loads((copy / "payoffs.json").read_text())
     (copy / "payoffs.json").write_text(json.dumps({k: v for k, v in payoffs.items() if "iter2" not in k}))
     kept = (copy / "iter2" / "wolves" / "summary.json").stat().st_mtime_ns
+    # The stopped invocation had recorded its wall time up to its first iteration.
+    progress = json.loads((copy / "progress.json").read_text())
+    (copy / "progress.json").write_text(json.dumps({"finished": False, "history": progress["history"][:1], "wall_s": 1000.0}))
     r = wolfpack_cli("league", "--out", str(copy), "--iterations", "2", "--budget", "8192", "--episodes", "4", "--jobs", "2", "--resume", "--json")
     assert r.returncode == 0, r.stderr
     again = json.loads(r.stdout)
     assert (copy / "iter2" / "wolves" / "summary.json").stat().st_mtime_ns == kept, "a finished run is read back"
+    assert 1000.0 < again["wall_s"] < 1000.0 + 600, "the earlier invocation's wall time is counted"
 
     def without_times(d):
         if isinstance(d, dict):

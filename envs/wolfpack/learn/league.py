@@ -25,7 +25,7 @@ mixture: the product, because users play one policy, not a mixture.
 
 Every step is a file: the plan first, each training run a ``wolfpack train`` run folder
 (``iter<k>/<side>/``, ``final/<side>/``), the payoffs in ``payoffs.json`` as they are measured,
-``progress.json`` after each iteration, ``league.json`` last. The loop reads back whatever is
+``progress.json`` after each iteration (with the wall time so far), ``league.json`` last. The loop reads back whatever is
 finished, so a league stopped anywhere continues where it stopped (``resume``) and ends as an
 uninterrupted one would.
 """
@@ -208,7 +208,11 @@ def league(
     threads = threads_per_run(jobs)
     payoffs = Payoffs(out, task, episodes)
     pops = {side: list(the_plan[side]) for side in SIDES}
-    started = time.perf_counter()
+    # Wall time over invocations: a resumed league adds what the earlier ones recorded up to
+    # their last finished iteration (the part of an interrupted one after it is not counted).
+    progress_path = out / PROGRESS_FILE
+    earlier_s = float(json.loads(progress_path.read_text(encoding="utf-8")).get("wall_s", 0.0)) if resume and progress_path.is_file() else 0.0
+    started = time.perf_counter() - earlier_s
     records = []
 
     def train_both(folder: Path, opponents: dict[str, list[str]], run_seed: int) -> dict[str, dict]:
@@ -253,7 +257,7 @@ def league(
         records.append(record)
         for side in SIDES:
             pops[side].append(new[side])
-        write_json_atomic(out / PROGRESS_FILE, {"finished": False, "history": records})
+        write_json_atomic(progress_path, {"finished": False, "history": records, "wall_s": time.perf_counter() - started})
         if progress is not None:
             progress(record)
 
