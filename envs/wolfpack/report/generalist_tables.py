@@ -37,6 +37,10 @@ POOL_LEAGUES = {
 ESCAPE_LEAGUE = ("league-tuned-seed2", "league-tuned-exploit-seed2")
 #: Seed 4's league again with the uniform meta-solver (fictitious play).
 UNIFORM_LEAGUE = ("league-uniform-seed4", "league-uniform-exploit-seed4")
+#: Leagues of the POOL_LEAGUES plan but ``--fine-tune wolves`` (the targets' best responses
+#: from scratch every iteration), by training seed: the league's folder and its final pack's
+#: exploitability folder.
+WOLVES_ONLY_LEAGUES = {seed: (f"league-wolves-seed{seed}", f"league-wolves-exploit-seed{seed}") for seed in (2, 0, 1)}
 
 
 def _members(members: list[str]) -> str:
@@ -92,6 +96,32 @@ def fine_tuned_exploitability(results: Results) -> str:
     }
     lines, _ = exploitability_report.packs_table(escape)
     return exploitability_report.over_training_seeds(docs) + "\n" + "\n".join(lines) + "\n"
+
+
+@block("fine-tuned-side")
+def fine_tuned_side(results: Results) -> str:
+    """Fine-tuning both sides against fine-tuning the wolves alone, the plan otherwise the same,
+    per training seed: what the league measured of its wolves' mixture, what fresh escapers get
+    through its final pack, and that pack against ``escape`` on hunt-v1's held-out episodes
+    (its scorecard)."""
+    lines = [
+        "| training seed | `--fine-tune` | wall time | the wolves' mixture's exploitability in the league, iteration 1 → last (%) "
+        "| final pack: survival of fresh escapers, IQM [95 % CI] | per best-response seed | hunt-v1: captured / wolf collisions |",
+        "|---:|---|---:|---|---|---|---|",
+    ]
+    for seed, wolves_only in WOLVES_ONLY_LEAGUES.items():
+        for side, (league_folder, exploit_folder) in (("both", POOL_LEAGUES[seed]), ("wolves", wolves_only)):
+            doc = results.json(f"learned/generalist/{league_folder}/league.json")
+            if doc.get("fine_tune") != (True if side == "both" else side):
+                raise ValueError(f"{league_folder}: a league with fine_tune {doc.get('fine_tune')!r}, not {side}")
+            b = results.json(f"learned/generalist/{exploit_folder}/exploit.json")["budgets"][0]
+            hunt = results.json(f"learned/generalist/{league_folder}/scorecard/scorecard.json")["tasks"]["hunt-v1"]
+            seeds = ", ".join(f"{100 * r['rate']:.1f}" for r in b["per_seed"])
+            lines.append(
+                f"| {seed} | {side} | {doc['wall_s'] / 60:.0f} min | {_exploitability_path(doc)} | {iqm_cell(b)} | {seeds} "
+                f"| {100 * hunt['capture_rate']:.1f} % / {100 * hunt['collision_rate']:.1f} % |"
+            )
+    return "\n".join(lines) + "\n"
 
 
 @block("meta-solver")
