@@ -10,7 +10,7 @@ import numpy as np
 
 from wolfpack._checks import check_flag
 from wolfpack.batch import OUTCOMES, first_cornered_step
-from wolfpack.sides import LEARNERS_ALIASES
+from wolfpack.sides import check_learners
 
 
 class SharedObservation:
@@ -47,7 +47,7 @@ class SharedObservation:
 
 def check_shared_space(shared_space: Any, learners: str) -> bool:
     shared_space = check_flag(shared_space, "shared_space")
-    if shared_space and LEARNERS_ALIASES.get(learners, learners) != "both":
+    if shared_space and check_learners(learners) != "both":
         raise ValueError(f"shared_space=True needs learners='both' (one policy for both sides), got learners={learners!r}")
     return shared_space
 

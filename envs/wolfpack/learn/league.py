@@ -25,9 +25,9 @@ mixture: the product, because users play one policy, not a mixture.
 
 Every step is a file: the plan first, each training run a ``wolfpack train`` run folder
 (``iter<k>/<side>/``, ``final/<side>/``), the payoffs in ``payoffs.json`` as they are measured,
-``progress.json`` after each iteration (with the wall time so far), ``league.json`` last. The loop reads back whatever is
-finished, so a league stopped anywhere continues where it stopped (``resume``) and ends as an
-uninterrupted one would.
+``progress.json`` after each iteration (with the wall time so far), ``league.json`` last. The
+loop reads back whatever is finished, so a league stopped anywhere continues where it stopped
+(``resume``) and ends as an uninterrupted one would.
 """
 
 from __future__ import annotations
