@@ -21,9 +21,10 @@ meta-solver). Each iteration plays every wolf member against every target member
 meta-game's episodes (seeds 700000 + k), solves the empirical zero-sum game for each side's
 Nash mixture (a linear program), trains one best response per side against the other side's
 mixture ('wolfpack train --opponent …', --budget agent-steps each; from scratch, or with
---fine-tune [SIDE] from the side's newest saved model), adds both to the populations, and logs each mixture's exploitability: what the other side's new best
-response achieves against it. After the last iteration one final policy per side is trained
-against the other side's final mixture: the league's product.
+--fine-tune [SIDE] from the side's newest saved model), adds both to the populations, and logs
+each mixture's exploitability: what the other side's new best response achieves against it.
+After the last iteration one final policy per side is trained against the other side's final
+mixture: the league's product.
 
 The populations start from --wolves / --targets (laws or saved models; default: each side's law
 of the task). --meta-solver uniform weighs every member alike instead (fictitious play: what the
