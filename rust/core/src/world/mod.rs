@@ -191,6 +191,8 @@ impl World {
     }
 
     fn assemble(params: Arc<Params>, seed: u64, episode: u64, wolves: Vec<AgentState>, targets: Vec<AgentState>, obstacles: Vec<Obstacle>) -> Self {
+        // Empty lists, which `restart` fills: a field added to World is set there too (the
+        // respawn test compares a respawned world with a fresh one, field by field).
         let mut w = Self {
             params: params.clone(),
             t: 0,
