@@ -20,8 +20,9 @@
 //! running when the job starts — descheduled because another process wants the core, as a
 //! learner beside the batch always does — would otherwise cost the caller a scheduler slice
 //! (milliseconds) per step (waiting for every member, two threads beside one busy process ran
-//! 3–8× slower than one); instead the caller steps that member's share itself, and the member
-//! that wakes after the job closed goes back to waiting.
+//! several times slower than one: BENCHMARKS.md, "Optimisations"); instead the caller steps
+//! that member's share itself, and the member that wakes after the job closed goes back to
+//! waiting.
 //!
 //! Rayon stays what runs the scripted episodes (`episode::run_episodes`), whose tasks are
 //! whole episodes (milliseconds each), where none of this shows.

@@ -24,14 +24,15 @@ use wolfpack_core::{Error, Params};
 
 /// The extension's Rust allocations (the worlds, their obstacles and vertex lists, the step's
 /// outputs) come from mimalloc, not glibc's malloc. Measured: a batch of 8,192 worlds (≈ 94 MB
-/// of state, far beyond the caches) steps 7–10 % faster; smaller batches and the scripted hunt
-/// are unchanged (BENCHMARKS.md, "Optimisations"). Most likely its size-segregated
-/// pages without per-block headers pack a batch's ≈ 54 small allocations per world more densely
-/// than glibc does. Python's own objects keep Python's allocator; numpy arrays made from Rust
-/// vectors are freed by Rust. `local_dynamic_tls`: Python loads this library with dlopen, after
-/// libraries such as torch that use up the static TLS block, where mimalloc's default
-/// initial-exec TLS can fail to load ("cannot allocate memory in static TLS block");
-/// tests/test_build.py checks the library needs no static TLS and imports it after torch.
+/// of state, far beyond the caches) steps several per cent faster; smaller batches and the
+/// scripted hunt are unchanged (BENCHMARKS.md, "Optimisations"). Most likely its
+/// size-segregated pages without per-block headers pack a batch's ≈ 54 small allocations per
+/// world more densely than glibc does. Python's own objects keep Python's allocator; numpy
+/// arrays made from Rust vectors are freed by Rust. `local_dynamic_tls`: Python loads this
+/// library with dlopen, after libraries such as torch that use up the static TLS block, where
+/// mimalloc's default initial-exec TLS can fail to load ("cannot allocate memory in static TLS
+/// block"); tests/test_build.py checks the library needs no static TLS and imports it after
+/// torch.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 

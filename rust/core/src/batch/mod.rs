@@ -96,11 +96,10 @@ const MAX_CHUNK: usize = 16;
 
 /// Worlds per thread from which a step asks the CPU to load each next world's memory while it
 /// steps the current one ([`Slot::prefetch`]). Below, a thread's worlds are still in the
-/// caches the last step left them in, and the hints only cost: without them, E = 1,024 ran
-/// 2–5 % faster on one thread and 4–9 % on two, E = 64 4 %; above, the worlds come from memory
-/// and the hints pay: E = 4,096 on one thread +17 %, E = 8,192 +8 % on one thread and +2–3 % on
-/// two; at 2,048 per thread it was even (steady-state runs after 1.5 M env-steps of warm-up,
-/// interleaved, BENCHMARKS.md, "Optimisations").
+/// caches the last step left them in, and the hints only cost: without them, E = 64 and
+/// E = 1,024 ran a few per cent faster on one thread and on two; above, the worlds come from
+/// memory and the hints pay, most on one thread and a little on two; at 2,048 per thread it
+/// was even (steady-state runs, interleaved: BENCHMARKS.md, "Optimisations").
 const PREFETCH_FROM: usize = 2048;
 
 /// Most worlds one batch may hold.
@@ -195,7 +194,7 @@ impl BatchEnv {
     /// Worlds per claim of [`par_for`]: 32 claims per thread and at most [`MAX_CHUNK`] worlds
     /// each, so one world at a time below 64 worlds per thread. The threads then finish within
     /// about a world's step of each other, and a thread that runs out moves as few worlds off
-    /// the other's core as it can (a world stolen is a world whose ≈ 9 KB of state crosses
+    /// the other's core as it can (a world stolen is a world whose several KB of state crosses
     /// between the cores' caches, there and back the next step). Against 8 worlds per claim
     /// it steps E = 64 on 2 threads about an eighth faster with the crew (BENCHMARKS.md,
     /// "Optimisations").

@@ -239,12 +239,13 @@ impl BatchEnv {
 
     /// A step's fresh outputs, the two observation arrays allocated but still empty: their
     /// lengths come back separately, and each world's task zeroes and fills its own pieces
-    /// ([`OutPieces::world`]). Zeroing them here, on the caller's thread, cost ≈ 5 % of a
-    /// two-thread step: the caller wrote every line before the other thread wrote it again.
-    /// The final observations stay `calloc`'d: a world writes its piece only when its episode
-    /// ends. (The allocators reuse the last step's blocks and clear them with a `memset`, 3 % of
-    /// a one-thread step at E = 8,192; zeroing them in the worlds' tasks instead, as for the
-    /// observations, measured no faster on one thread or two: BENCHMARKS.md, "Optimisations".)
+    /// ([`OutPieces::world`]). Zeroing them here, on the caller's thread, cost a few per cent
+    /// of a two-thread step at large batches: the caller wrote every line before the other
+    /// thread wrote it again (BENCHMARKS.md, "Optimisations"). The final observations stay
+    /// `calloc`'d: a world writes its piece only when its episode ends. (The allocators reuse
+    /// the last step's blocks and clear them with a `memset`, a few per cent of a one-thread
+    /// step at E = 8,192; zeroing them in the worlds' tasks instead, as for the observations,
+    /// measured no faster on one thread or two: BENCHMARKS.md, "Profile of the hot path".)
     pub(super) fn alloc(&self) -> (StepOutput, ObsLens) {
         let lens = self.output_specs().map(|s| s.len());
         let obs = ObsLens([lens[0], lens[1]]);

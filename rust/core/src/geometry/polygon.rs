@@ -7,11 +7,11 @@ use super::Extent;
 use crate::math::{angle_of, wrap, wrap_pi, Vec2, FRAC_PI_2};
 
 /// The edges `(v[i], v[i + 1])` of a closed polygon, the last one back to `v[0]`, in order.
-/// Without the `(i + 1) % n` of an index loop: an integer division per edge was ≈ 10 % of a
-/// polygon query's cycles.
+/// Without the `(i + 1) % n` of an index loop: an integer division per edge was a sizeable
+/// share of a polygon query's cycles.
 /// (An index and a wrap test per edge: the `zip`/`chain` of slice iterators this replaced
-/// compiled to a state machine of ≈ 15 instructions per edge, a third of a closest-point
-/// query.)
+/// compiled to a state machine of many instructions per edge, a large share of a
+/// closest-point query; BENCHMARKS.md, "Optimisations".)
 #[inline]
 pub fn edges(v: &[Vec2]) -> Edges<'_> {
     Edges { v, i: 0 }
@@ -69,7 +69,8 @@ fn crosses(a: Vec2, b: Vec2, p: Vec2) -> bool {
 
 /// The point of segment [a, b] closest to `p`: parry's `Segment::project_local_point`, the
 /// same arithmetic bit for bit (a test checks), without its out-of-line call and the
-/// `relative_eq!` "inside" flag it computes for every projection (≈ 40 % of a polygon query).
+/// `relative_eq!` "inside" flag it computes for every projection (a large part of a polygon
+/// query: BENCHMARKS.md, "Optimisations").
 #[inline]
 pub fn closest_on_segment(a: Vec2, b: Vec2, p: Vec2) -> Vec2 {
     let ab = b - a;
@@ -133,10 +134,10 @@ pub fn polygon_visible_extent(poly: &[Vec2], center: Vec2, p: Vec2, range: f64) 
     // One pass over the edges does the three walks of [`visible_extent_by_passes`] — closest
     // point, containment, clipping by the disc — and keeps the clipped endpoints; the rest is
     // that function's, on the same numbers in the same order, so the result is the same bit
-    // for bit (a test checks). It saved ≈ 0.5 % of a scripted step's instructions: the
-    // edges' arithmetic, not the walking, is what a query costs.
-    // Stack lists that are not zeroed: initialising 64 + 64 slots per query cost ≈ 100
-    // instructions of its ≈ 2,300.
+    // for bit (a test checks). It saved little of a scripted step's instructions: the edges'
+    // arithmetic, not the walking, is what a query costs.
+    // Stack lists that are not zeroed: initialising 64 + 64 slots per query cost a few per
+    // cent of its instructions (both: BENCHMARKS.md, "Optimisations").
     const ENDS: usize = 64;
     let mut ends: ArrayVec<Vec2, ENDS> = ArrayVec::new();
     let mut best = (poly[0], f64::INFINITY);

@@ -82,7 +82,8 @@ pub struct Item {
 #[derive(Debug, Clone)]
 pub struct Items {
     // ArrayVec: no initialisation of the 32 slots (initialising them from a constant array cost
-    // a 1.3 KB memcpy per agent and step, ≈ 5 % of the documented step).
+    // a 1.3 KB memcpy per agent and step, a few per cent of the documented step: BENCHMARKS.md,
+    // "Optimisations").
     buf: ArrayVec<Item, MAX_ITEMS>,
     /// Items seen, dropped ones included: the count that picks the κ row.
     seen: usize,
@@ -257,8 +258,8 @@ impl Merged {
     }
 
     /// [`Merged::new`] into this buffer, in place. The laws call this on a buffer of their
-    /// own stack frame: returning the 1 KB buffer by value cost a `memcpy` per agent and step
-    /// (≈ 0.7 k instructions of a 35 k step, callgrind).
+    /// own stack frame: returning the 1 KB buffer by value cost a `memcpy` per agent and step,
+    /// a small share of a step's instructions (BENCHMARKS.md, "Optimisations").
     pub fn fill(&mut self, items: &[Item], row: &KappaRow, wall_emergency: bool) {
         self.buf.clear();
         for it in items.iter().take(MAX_ITEMS) {

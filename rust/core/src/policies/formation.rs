@@ -175,8 +175,8 @@ pub fn spacing_potential(z: f64, spacing: f64, k: f64) -> f64 {
 
 /// The virtual leader for a pack centred at `centroid` hunting at `target`: its position and
 /// velocity, and whether it is the target itself (the path is shorter than `formation.lead`).
-/// Memoised per thread (every wolf of the pack asks for the same leader each step: 5× fewer
-/// path searches, no result changes).
+/// Memoised per thread (every wolf of the pack asks for the same leader each step: one path
+/// search per pack instead of one per wolf, no result changes; BENCHMARKS.md, "Optimisations").
 pub fn leader(centroid: Vec2, target: Vec2, obstacles: &[Obstacle], f: &FormationParams) -> (Vec2, Vec2, bool) {
     let mut key = vec![centroid.x, centroid.y, target.x, target.y, f.clearance, f.lead, f.leader_speed, f.ring_points as f64];
     key.extend(obstacles.iter().flat_map(|o| [o.center.x, o.center.y, o.radius]));

@@ -96,7 +96,8 @@ pub fn near<'a>(obstacles: &'a [Obstacle], lists: Option<&'a Neighbours>, a: usi
 }
 
 /// The iterator of [`near`]. (A plain cursor: the `chain` of two flattened options it replaced
-/// compiled to ≈ 3 % of a step of iterator state, and did not always inline.)
+/// compiled to a few per cent of a step of iterator state, and did not always inline:
+/// BENCHMARKS.md, "Optimisations".)
 #[derive(Debug, Clone)]
 pub struct Near<'a> {
     obstacles: &'a [Obstacle],

@@ -204,7 +204,8 @@ impl Obstacle {
 /// a bound on the bounding radius, not the sorted angles, the sin/cos of each and two vertex
 /// lists. Spawning drew and built every candidate (≈ 50 per world spawned); with the bound
 /// it builds only those that may fit, from the same draws in the same order. That halved
-/// spawning's instructions: −2.5 % for a scripted episode, −4 % for a batch step.
+/// spawning's instructions, a few per cent of a scripted episode's and of a batch step's
+/// (BENCHMARKS.md, "Optimisations").
 #[derive(Debug, Clone, Default)]
 pub(crate) struct PolygonDraw {
     size: f64,

@@ -122,11 +122,12 @@ pub struct World {
     pub track_laws: bool,
     /// Place a polygon's vertices only when an agent could reach it this step (its bounding
     /// disc within the cull distance of a pose point) instead of after every move: a sin_cos
-    /// and a rotation of 7–15 vertices for each of the other polygons, ≈ 8 % of a step of the
-    /// documented scenario, and at large batches the memory traffic of writing them. Laws that
-    /// read every obstacle (bvc, formation) get every polygon placed. Only the episode runner
-    /// and the batch set it, on worlds whose every reader places what it reads first: the
-    /// lidar ([`World::place_for_lidar`]), `BatchEnv::world` ([`World::settle_obstacles`]).
+    /// and a rotation of 7–15 vertices for each of the other polygons, several per cent of a
+    /// step of the documented scenario (BENCHMARKS.md, "Optimisations"), and at large batches
+    /// the memory traffic of writing them. Laws that read every obstacle (bvc, formation) get
+    /// every polygon placed. Only the episode runner and the batch set it, on worlds whose
+    /// every reader places what it reads first: the lidar ([`World::place_for_lidar`]),
+    /// `BatchEnv::world` ([`World::settle_obstacles`]).
     pub(crate) lazy_obstacles: bool,
     /// Set when a step produced a non-finite command or pose (see [`World::fault`]); the world
     /// is then done and does not move again.
@@ -163,7 +164,8 @@ impl World {
 
     /// [`World::new_episode`] for params the caller has validated already (the episode runner
     /// and the batch check them once, not at every spawn: validation walks every key and
-    /// cost ≈ 2.4 % of the documented scenario's throughput when repeated per episode).
+    /// cost a couple of per cent of the documented scenario's throughput when repeated per
+    /// episode; BENCHMARKS.md, "Optimisations").
     pub(crate) fn new_episode_prevalidated(params: Arc<Params>, seed: u64, episode: u64) -> Result<Self> {
         let mut rng = stream(seed, episode, STREAM_SPAWN);
         let (wolves, targets, obstacles) = spawn::spawn(&params, &mut rng)?;
