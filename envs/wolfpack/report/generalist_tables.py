@@ -41,6 +41,9 @@ UNIFORM_LEAGUE = ("league-uniform-seed4", "league-uniform-exploit-seed4")
 #: from scratch every iteration), by training seed: the league's folder and its final pack's
 #: exploitability folder.
 WOLVES_ONLY_LEAGUES = {seed: (f"league-wolves-seed{seed}", f"league-wolves-exploit-seed{seed}") for seed in (2, 0, 1)}
+#: The cross-play matrices (``training/evaluate.py --matrix``) of each plan's final packs against
+#: ``escape`` and the committed learned escapers.
+MATRICES = {"both": "league-pool/matrix", "wolves": "league-wolves/matrix"}
 
 
 def _members(members: list[str]) -> str:
@@ -102,12 +105,13 @@ def fine_tuned_exploitability(results: Results) -> str:
 def fine_tuned_side(results: Results) -> str:
     """Fine-tuning both sides against fine-tuning the wolves alone, the plan otherwise the same,
     per training seed: what the league measured of its wolves' mixture, what fresh escapers get
-    through its final pack, and that pack against ``escape`` on hunt-v1's held-out episodes
-    (its scorecard)."""
+    through its final pack, that pack against ``escape`` on hunt-v1's held-out episodes (its
+    scorecard) and its worst case against the committed learned escapers (:data:`MATRICES`)."""
+    worst = {side: _worst_learned(results.json(f"learned/generalist/{folder}/matrix.json")) for side, folder in MATRICES.items()}
     lines = [
         "| training seed | `--fine-tune` | wall time | the wolves' mixture's exploitability in the league, iteration 1 → last (%) "
-        "| final pack: survival of fresh escapers, IQM [95 % CI] | per best-response seed | hunt-v1: captured / wolf collisions |",
-        "|---:|---|---:|---|---|---|---|",
+        "| final pack: survival of fresh escapers, IQM [95 % CI] | per best-response seed | hunt-v1: captured / wolf collisions | worst committed escaper |",
+        "|---:|---|---:|---|---|---|---|---:|",
     ]
     for seed, wolves_only in WOLVES_ONLY_LEAGUES.items():
         for side, (league_folder, exploit_folder) in (("both", POOL_LEAGUES[seed]), ("wolves", wolves_only)):
@@ -119,9 +123,17 @@ def fine_tuned_side(results: Results) -> str:
             seeds = ", ".join(f"{100 * r['rate']:.1f}" for r in b["per_seed"])
             lines.append(
                 f"| {seed} | {side} | {doc['wall_s'] / 60:.0f} min | {_exploitability_path(doc)} | {iqm_cell(b)} | {seeds} "
-                f"| {100 * hunt['capture_rate']:.1f} % / {100 * hunt['collision_rate']:.1f} % |"
+                f"| {100 * hunt['capture_rate']:.1f} % / {100 * hunt['collision_rate']:.1f} % | {100 * worst[side][f'{league_folder}/final/wolves']:.1f} % |"
             )
     return "\n".join(lines) + "\n"
+
+
+def _worst_learned(matrix: dict) -> dict[str, float]:
+    """Each learned pack of a cross-play matrix (by its label without the algorithm) and its
+    lowest capture rate against the learned escapers (the columns that are not laws)."""
+    learned = [t for t in matrix["targets"] if t not in ("escape", "random", "still")]
+    cells = {(c["wolves"], c["targets"]): c["capture_rate"] for c in matrix["cells"]}
+    return {w.split(":", 1)[1]: min(cells[(w, t)] for t in learned) for w in matrix["wolves"] if ":" in w}
 
 
 @block("meta-solver")
