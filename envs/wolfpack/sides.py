@@ -20,10 +20,16 @@ LEARNERS: tuple[str, ...] = tuple(_core.LEARNERS)
 LEARNERS_ALIASES = {"all": "both"}
 
 
+def learners_name(learners: Any) -> Any:
+    """``learners`` with an alias resolved (``"all"`` becomes ``"both"``), anything else as
+    given."""
+    return LEARNERS_ALIASES.get(learners, learners) if isinstance(learners, str) else learners
+
+
 def check_learners(learners: Any) -> str:
-    """``learners`` as the package names it (``"all"`` becomes ``"both"``); ValueError listing
-    the names otherwise."""
-    name = LEARNERS_ALIASES.get(learners, learners) if isinstance(learners, str) else learners
+    """``learners`` as the package names it (:func:`learners_name`); ValueError listing the
+    names otherwise."""
+    name = learners_name(learners)
     if name not in LEARNERS:
         raise ValueError(f"learners must be one of {', '.join(map(repr, LEARNERS))}, got {learners!r}")
     return name

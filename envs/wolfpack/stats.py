@@ -30,6 +30,12 @@ def iqm_cell(summary: dict) -> str:
     return f"{100 * summary['iqm']:.1f} % [{100 * summary['ci95'][0]:.1f}, {100 * summary['ci95'][1]:.1f}]"
 
 
+def seed_rates_cell(per_seed: Sequence[dict]) -> str:
+    """``16.0, 5.0, 19.5``: each seed's ``rate`` in %, in seed order (an exploitability
+    budget's ``per_seed`` rows)."""
+    return ", ".join(f"{100 * r['rate']:.1f}" for r in per_seed)
+
+
 def range_cell(summary: dict) -> str:
     """``95.0 % (95.0–97.0)``: the median over seeds and their range."""
     return f"{100 * summary['median']:.1f} % ({100 * summary['min']:.1f}–{100 * summary['max']:.1f})"

@@ -62,7 +62,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from wolfpack._checks import check_seed
 from wolfpack.batch import OUTCOMES, BatchEnv, rebuild
 from wolfpack.parallel_env import action_box, observation_box
-from wolfpack.sides import LEARNERS_ALIASES
+from wolfpack.sides import learners_name
 from wolfpack.views import SharedObservation, agent_infos, check_shared_space, world_agent_infos
 
 #: The info of every slot whose world is still running after a step: empty and read-only
@@ -110,7 +110,7 @@ class WolfpackVecEnv(VecEnv):
     ) -> None:
         self._init_kwargs = dict(params=params, task=task, num_envs=num_envs, learners=learners, seed=seed, threads=threads, shared_space=shared_space, opponent=opponent, **overrides)
         given = learners
-        learners = LEARNERS_ALIASES.get(learners, learners) if isinstance(learners, str) else learners
+        learners = learners_name(learners)
         if learners not in ("wolves", "targets", "both"):
             raise ValueError(f"make_vec_env learners must be 'wolves', 'targets' or 'both' (with shared_space=True), got {given!r}")
         if learners == "both" and shared_space is not True:

@@ -8,7 +8,8 @@ from wolfpack.report import exploitability as exploitability_report
 from wolfpack.report import psro as psro_report
 from wolfpack.report.blocks import block
 from wolfpack.report.documents import Results
-from wolfpack.stats import iqm_cell, iqm_interval
+from wolfpack.sides import SCRIPTED_LAWS
+from wolfpack.stats import iqm_cell, iqm_interval, seed_rates_cell
 
 
 @block("generalist-exploitability")
@@ -120,7 +121,7 @@ def fine_tuned_side(results: Results) -> str:
                 raise ValueError(f"{league_folder}: a league with fine_tune {doc.get('fine_tune')!r}, not {side}")
             b = results.json(f"learned/generalist/{exploit_folder}/exploit.json")["budgets"][0]
             hunt = results.json(f"learned/generalist/{league_folder}/scorecard/scorecard.json")["tasks"]["hunt-v1"]
-            seeds = ", ".join(f"{100 * r['rate']:.1f}" for r in b["per_seed"])
+            seeds = seed_rates_cell(b["per_seed"])
             lines.append(
                 f"| {seed} | {side} | {doc['wall_s'] / 60:.0f} min | {_exploitability_path(doc)} | {iqm_cell(b)} | {seeds} "
                 f"| {100 * hunt['capture_rate']:.1f} % / {100 * hunt['collision_rate']:.1f} % | {100 * worst[side][f'{league_folder}/final/wolves']:.1f} % |"
@@ -128,10 +129,15 @@ def fine_tuned_side(results: Results) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _learned_escapers(matrix: dict) -> list[str]:
+    """A cross-play matrix's target columns that are models, not the targets' laws."""
+    return [t for t in matrix["targets"] if t not in SCRIPTED_LAWS["targets"]]
+
+
 def _worst_learned(matrix: dict) -> dict[str, float]:
     """Each learned pack of a cross-play matrix (by its label without the algorithm) and its
-    lowest capture rate against the learned escapers (the columns that are not laws)."""
-    learned = [t for t in matrix["targets"] if t not in ("escape", "random", "still")]
+    lowest capture rate against the learned escapers."""
+    learned = _learned_escapers(matrix)
     cells = {(c["wolves"], c["targets"]): c["capture_rate"] for c in matrix["cells"]}
     return {w.split(":", 1)[1]: min(cells[(w, t)] for t in learned) for w in matrix["wolves"] if ":" in w}
 
@@ -150,7 +156,7 @@ def meta_solver(results: Results) -> str:
         if doc["meta_solver"] != solver:
             raise ValueError(f"{league_folder}: a league of the {doc['meta_solver']} meta-solver, not {solver}")
         b = results.json(f"learned/generalist/{exploit_folder}/exploit.json")["budgets"][0]
-        seeds = ", ".join(f"{100 * r['rate']:.1f}" for r in b["per_seed"])
+        seeds = seed_rates_cell(b["per_seed"])
         lines.append(f"| {solver} | {doc['wall_s'] / 60:.0f} min | {_exploitability_path(doc)} | {iqm_cell(b)} | {seeds} |")
     return "\n".join(lines) + "\n"
 
@@ -185,7 +191,7 @@ def fine_tuned_escapers(results: Results) -> str:
     collisions; the last column each pack's worst case over the learned escapers."""
     doc = results.json("learned/generalist/league-pool/matrix/matrix.json")
     cells = {(c["wolves"], c["targets"]): c for c in doc["cells"]}
-    learned = [t for t in doc["targets"] if t not in ("escape", "random", "still")]
+    learned = _learned_escapers(doc)
     header = " | ".join(f"`{t.split(':', 1)[1]}`" for t in learned)
     lines = [f"| wolves | `escape` (collisions) | {header} | worst learned |", "|---|---:|" + "---:|" * len(learned) + "---|"]
     for w in doc["wolves"]:
